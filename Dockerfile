@@ -1,0 +1,21 @@
+# The service in a container: the same environment as `make setup` (CPU torch), serving on port 8000.
+FROM python:3.11-slim
+
+ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 \
+    JARVIS_HOST=0.0.0.0 JARVIS_PORT=8000 JARVIS_DATA_DIR=/data
+
+WORKDIR /srv
+# CPU-only torch first, from PyTorch's CPU index, so nothing pulls a CUDA build.
+RUN pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
+COPY pyproject.toml README.md ./
+COPY app ./app
+COPY agent ./agent
+COPY symbolic ./symbolic
+COPY models ./models
+COPY harness ./harness
+RUN pip install .
+
+EXPOSE 8000
+HEALTHCHECK --interval=30s --timeout=3s --start-period=20s --retries=3 \
+  CMD python -c "import urllib.request,sys; sys.exit(0 if urllib.request.urlopen('http://127.0.0.1:8000/healthz').status == 200 else 1)"
+CMD ["python", "-m", "app"]

@@ -1,0 +1,43 @@
+"""Perception back-ends behind one contract (``base``), chosen by name per session.
+
+``oracle`` uses the caller's depth and segmentation; the learned back-end (RGB only) joins this registry
+with the perception-models issue, and nothing outside this package changes when it does.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+
+from agent.geometry import Camera
+from agent.perception.base import (
+    Observation,
+    ObservationError,
+    Percept,
+    Perception,
+    PerceptionFactory,
+    confident_depth,
+)
+from agent.perception.oracle import OraclePerception
+
+PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType({"oracle": OraclePerception})
+"""Name -> factory; the session's ``perception`` field picks one."""
+
+
+def make_perception(name: str, camera: Camera) -> Perception:
+    """The back-end called ``name`` for a session with ``camera``; KeyError listing the known names."""
+    factory = PERCEPTION_BACKENDS.get(name)
+    if factory is None:
+        raise KeyError(f"unknown perception {name!r}; known: {', '.join(sorted(PERCEPTION_BACKENDS))}")
+    return factory(camera)
+
+
+__all__ = [
+    "PERCEPTION_BACKENDS",
+    "Observation",
+    "ObservationError",
+    "OraclePerception",
+    "Percept",
+    "Perception",
+    "confident_depth",
+    "make_perception",
+]

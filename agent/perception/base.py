@@ -1,0 +1,106 @@
+"""The perception contract: what a step brings in (Observation) and what the map needs (Percept).
+
+HLSM (seed 000 §4.2, perception step) turns each RGB frame into depth, a depth-confidence mask and
+semantic segmentation; JARVIS (seed 002 §3.2) does the same with its own networks. The oracle back-end
+takes them from the caller; the learned one will estimate them from RGB. Both return a Percept, so
+swapping back-ends changes nothing outside ``agent/perception``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from agent.geometry import Camera, Pose
+
+
+class ObservationError(ValueError):
+    """A step input that cannot be used; the app answers 422 naming ``field``."""
+
+    def __init__(self, field: str, detail: str) -> None:
+        self.field = field
+        self.detail = detail
+        super().__init__(f"{field}: {detail}")
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """One decoded, validated step input (DESIGN.md §4); arrays are [H, W] in the session camera's size."""
+
+    rgb: np.ndarray | None = None
+    """uint8 [H, W, 3] in RGB order."""
+    depth: np.ndarray | None = None
+    """float32 [H, W] z-depth, metres; finite and >= 0 (0 = no reading)."""
+    depth_uncertainty: np.ndarray | None = None
+    """float32 [H, W] width of the 90% interval of each depth reading, metres (HLSM's W90)."""
+    instances: np.ndarray | None = None
+    """int32 [H, W] instance ids; every id appears in ``legend`` except 0, which means "nothing known"."""
+    legend: Mapping[int, str] = field(default_factory=dict)
+    """Instance id -> canonical ontology type."""
+    pose: Pose | None = None
+    """World-frame pose when the caller knows it."""
+    last_action_success: bool | None = None
+    held_object: str | None = None
+    """Canonical type of what the agent holds, when the caller says."""
+
+
+@dataclass(frozen=True, eq=False)
+class Percept:
+    """What the map update consumes: depth with its trusted pixels, and per-pixel classes and instances."""
+
+    depth: np.ndarray
+    """float32 [H, W] z-depth, metres."""
+    depth_valid: np.ndarray
+    """bool [H, W]: pixels whose depth the map may use (equation (5) of HLSM when uncertainty is known)."""
+    class_ids: np.ndarray
+    """uint8 [H, W] agent class ids (``agent.classes``), 0 = unknown."""
+    instances: np.ndarray
+    """int32 [H, W] instance ids (0 = none)."""
+    instance_types: Mapping[int, str]
+    """Instance id -> canonical type of the instances in this frame."""
+
+    def __post_init__(self) -> None:
+        H, W = self.depth.shape
+        for name in ("depth_valid", "class_ids", "instances"):
+            shape = getattr(self, name).shape
+            assert shape == (H, W), f"{name} has shape {shape}, depth has {(H, W)}"
+        assert self.class_ids.dtype == np.uint8, f"class_ids must be uint8, got {self.class_ids.dtype}"
+        assert self.depth_valid.dtype == bool, f"depth_valid must be bool, got {self.depth_valid.dtype}"
+
+
+class Perception(Protocol):
+    """A perception back-end: one observation in, one percept out."""
+
+    def perceive(self, obs: Observation, *, target_type: str | None) -> Percept:
+        """``target_type`` is the current subgoal's object: HLSM trusts its depth more (eq. 5)."""
+        ...
+
+
+PerceptionFactory = Callable[[Camera], Perception]
+"""Builds a back-end for one session's camera (a learned back-end sizes its networks' inputs from it)."""
+
+
+def confident_depth(
+    depth: np.ndarray,
+    uncertainty: np.ndarray | None,
+    target_mask: np.ndarray | None,
+    *,
+    c1: float = 0.3,
+    c2: float = 1.0,
+) -> np.ndarray:
+    """bool [H, W]: pixels whose depth the map may trust.
+
+    HLSM eq. (5) (appendix A.3): M = (W90 < c1·E) ∨ ((W90 < c2·E) ∧ target), with W90 the width of the 90%
+    interval, E the expected depth and ``target`` the current subgoal's class mask; c1 = 0.3, c2 = 1.0
+    give the target more slack. Without uncertainty every finite positive reading is trusted.
+    """
+    valid = np.isfinite(depth) & (depth > 0)
+    if uncertainty is None:
+        return valid
+    confident = uncertainty < c1 * depth
+    if target_mask is not None:
+        confident |= (uncertainty < c2 * depth) & target_mask
+    return valid & confident

@@ -1,0 +1,146 @@
+"""Planners turn what the agent knows into future subgoals, repaired by task-level commonsense rules.
+
+JARVIS (seed 002) Algorithm 2: a language planner proposes subgoals from the dialogue, then
+``TaskCommonSenseProcess`` repairs them against the agent's state after the history subgoals.
+The oracle planner stands in for the language model with subgoals given by the caller (the way the
+seed's ablations feed ground-truth subgoals) and runs the same repair, so the rules act on both.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Literal, Protocol
+
+from symbolic.belief import BeliefState
+from symbolic.ontology import Ontology
+from symbolic.repair import RepairEvent, repair_plan
+from symbolic.subgoals import Subgoal, parse_subgoals
+
+Speaker = Literal["Commander", "Driver"]
+"""TEACh's speaker names (``dialog_history``); TATC's "Follower" is the Driver."""
+
+PlanSource = Literal["oracle", "model", "none"]
+"""Who made the current plan: given subgoals, the language model, or nobody yet."""
+
+
+@dataclass(frozen=True)
+class DialogueTurn:
+    """One utterance, as TEACh's ``dialog_history`` pairs ``[speaker, text]``."""
+
+    speaker: Speaker
+    text: str
+
+
+@dataclass(frozen=True)
+class PlanningContext:
+    """Everything a planner may read: Algorithm 2's inputs plus the oracle's given subgoals."""
+
+    dialogue: tuple[DialogueTurn, ...] = ()
+    history_subgoals: tuple[Subgoal, ...] = ()
+    instruction: str | None = None
+    given_subgoals: str | Sequence[object] | None = None
+
+
+@dataclass(frozen=True)
+class PlanOutcome:
+    """A repaired plan, the log of the rules that changed it, and who made it."""
+
+    plan: tuple[Subgoal, ...]
+    repair_log: tuple[RepairEvent, ...]
+    source: PlanSource
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Limits every planner honours."""
+
+    max_subgoals: int = 300  # subgoals; the seed sets the "maximum length of generated subgoal" to 300
+
+
+class Planner(Protocol):
+    """Makes the future plan; ``replans_on_dialogue`` says whether a new commander turn can change it."""
+
+    name: str
+    replans_on_dialogue: bool
+
+    def plan(self, context: PlanningContext) -> PlanOutcome:
+        """The repaired future plan for this context."""
+        ...
+
+
+class SubgoalsRequired(ValueError):
+    """The oracle planner was given no subgoals to follow."""
+
+
+class PlanTooLong(ValueError):
+    """A plan (given or after repair) is longer than ``PlannerConfig.max_subgoals``."""
+
+    def __init__(self, length: int, limit: int, stage: str) -> None:
+        super().__init__(f"the {stage} plan has {length} subgoals; at most {limit} are allowed")
+        self.length = length
+        self.limit = limit
+        self.stage = stage
+
+
+class UnknownPlanner(LookupError):
+    """No planner of this name is available in this build; ``known`` lists those that are."""
+
+    def __init__(self, name: str, known: Sequence[str]) -> None:
+        super().__init__(f"no planner named {name!r}; available planners: {', '.join(known)}")
+        self.name = name
+        self.known = tuple(known)
+
+
+def belief_after(history: Sequence[Subgoal], ontology: Ontology) -> BeliefState:
+    """The agent's belief once the history subgoals are done (Algorithm 2 assumes they all succeeded)."""
+    belief = BeliefState.initial(ontology)
+    for subgoal in history:
+        belief = belief.apply(subgoal, ontology)
+    return belief
+
+
+class OraclePlanner:
+    """Follows the caller's subgoals: parse them with the ontology, then repair (Algorithm 2 l. 20-46)."""
+
+    name = "oracle"
+    replans_on_dialogue = False  # the given subgoals are the whole plan; dialogue cannot change them
+
+    def __init__(self, ontology: Ontology, config: PlannerConfig) -> None:
+        self.ontology = ontology
+        self.config = config
+
+    def plan(self, context: PlanningContext) -> PlanOutcome:
+        if context.given_subgoals is None:
+            raise SubgoalsRequired("the oracle planner needs subgoals (text or a list); none were given")
+        given = parse_subgoals(context.given_subgoals, self.ontology)
+        if not given:
+            raise SubgoalsRequired("the oracle planner needs at least one subgoal; the given list is empty")
+        self._check_length(len(given), "given")
+        belief = belief_after(context.history_subgoals, self.ontology)
+        repaired = repair_plan(given, self.ontology, belief)
+        self._check_length(len(repaired.plan), "repaired")
+        return PlanOutcome(plan=tuple(repaired.plan), repair_log=tuple(repaired.log), source="oracle")
+
+    def _check_length(self, length: int, stage: str) -> None:
+        if length > self.config.max_subgoals:
+            raise PlanTooLong(length, self.config.max_subgoals, stage)
+
+
+_PLANNER_FACTORIES: Mapping[str, Callable[[Ontology, PlannerConfig], Planner]] = MappingProxyType(
+    {"oracle": OraclePlanner}
+)
+
+
+def available_planners() -> tuple[str, ...]:
+    """Names ``make_planner`` accepts in this build."""
+    return tuple(sorted(_PLANNER_FACTORIES))
+
+
+def make_planner(name: str, ontology: Ontology, config: PlannerConfig | None = None) -> Planner:
+    """The planner registered as ``name``; UnknownPlanner lists the available ones."""
+    factory = _PLANNER_FACTORIES.get(name)
+    if factory is None:
+        raise UnknownPlanner(name, available_planners())
+    return factory(ontology, config or PlannerConfig())

@@ -1,0 +1,23 @@
+"""OpenAPI entries for error answers, so ``/docs`` shows the ``{"error", "detail"}`` body per status."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.schemas import ErrorBody
+
+_MEANING = {
+    400: "Malformed JSON (error malformed_json).",
+    404: "Unknown or expired session (error session_not_found).",
+    409: "The session is busy with another request, or the step index is out of order.",
+    413: "Body, dialogue or plan over the configured limit.",
+    422: "Invalid input; the detail names the field (validation_error, unknown_object_type, ...).",
+    429: "The store is full (error too_many_sessions).",
+    501: "Valid request for a part that is not built yet (error not_implemented).",
+    503: "The service is starting (error not_ready).",
+}
+
+
+def error_responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    """``responses=`` for a route: each status with ErrorBody as its schema."""
+    return {status: {"model": ErrorBody, "description": _MEANING[status]} for status in statuses}

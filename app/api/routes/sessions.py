@@ -1,0 +1,107 @@
+"""``/v1/sessions``: create, read, delete a session and add utterances (DESIGN.md §4)."""
+
+from __future__ import annotations
+
+import logging
+import uuid
+from datetime import UTC, datetime
+
+from fastapi import APIRouter, Response
+
+from app.api.deps import OntologyDep, SessionDep, SettingsDep, StoreDep, session_not_found
+from app.api.responses import error_responses
+from app.errors import TOO_MANY_SESSIONS, ApiError
+from app.limits import check_dialogue
+from app.schemas import SessionCreate, SessionPublic, UtteranceCreate, UtteranceResult
+from app.session_builder import build_session, planning_errors_as_api_errors
+from app.store import SessionNotFound, StoreFull
+from app.views import session_public
+
+router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
+_LOG = logging.getLogger("app.sessions")
+
+
+@router.post(
+    "",
+    status_code=201,
+    response_model=SessionPublic,
+    responses=error_responses(400, 413, 422, 429, 503),
+    summary="Create a session and its first repaired plan",
+)
+def create_session(
+    body: SessionCreate, settings: SettingsDep, store: StoreDep, ontology: OntologyDep, response: Response
+) -> SessionPublic:
+    session = build_session(body, settings, ontology, session_id=uuid.uuid4().hex, now=datetime.now(UTC))
+    try:
+        store.create(session)
+    except StoreFull as error:
+        raise ApiError(
+            429,
+            TOO_MANY_SESSIONS,
+            f"{error}; delete finished sessions or wait for idle ones to expire "
+            f"(settings JARVIS_MAX_SESSIONS={settings.max_sessions}, "
+            f"JARVIS_SESSION_TTL_S={settings.session_ttl_s})",
+        ) from error
+    response.headers["Location"] = f"/v1/sessions/{session.session_id}"
+    _LOG.info(
+        "session_created",
+        extra={
+            "session_id": session.session_id,
+            "mode": session.mode,
+            "planner": session.planner.name,
+            "plan_length": len(session.plan),
+            "repairs": len(session.repair_log),
+        },
+    )
+    return session_public(session)
+
+
+@router.get(
+    "/{session_id}",
+    response_model=SessionPublic,
+    responses=error_responses(404, 409, 422, 503),
+    summary="Read a session: configuration, dialogue, plan and progress",
+)
+def read_session(handle: SessionDep) -> SessionPublic:
+    with handle.hold() as session:
+        return session_public(session)
+
+
+@router.delete(
+    "/{session_id}",
+    status_code=204,
+    response_class=Response,
+    responses=error_responses(404, 422, 503),
+    summary="Delete a session and free its slot",
+)
+def delete_session(session_id: str, store: StoreDep) -> Response:
+    try:
+        store.delete(session_id)
+    except SessionNotFound as error:
+        raise session_not_found(session_id) from error
+    _LOG.info("session_deleted", extra={"session_id": session_id})
+    return Response(status_code=204)
+
+
+@router.post(
+    "/{session_id}/utterances",
+    response_model=UtteranceResult,
+    responses=error_responses(400, 404, 409, 413, 422, 503),
+    summary="Add a dialogue turn; a commander turn may re-plan",
+)
+def add_utterance(body: UtteranceCreate, handle: SessionDep, settings: SettingsDep) -> UtteranceResult:
+    with handle.hold() as session:
+        check_dialogue([body], settings, already=len(session.dialogue))
+        speaker = body.normalized_speaker()
+        with planning_errors_as_api_errors("dialogue"):
+            replanned = session.add_utterance(speaker, body.text)
+        if replanned:
+            note = "the commander's turn produced a new plan; the pointer restarts at its first subgoal"
+        elif speaker != "Commander":
+            note = "recorded; only commander turns can change the plan"
+        else:
+            note = (
+                f"recorded; planner {session.planner.name!r} follows the subgoals it was given and does not "
+                "re-plan from dialogue"
+            )
+        return UtteranceResult(session=session_public(session), replanned=replanned, note=note)

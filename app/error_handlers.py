@@ -1,0 +1,108 @@
+"""Every failure becomes ``{"error": code, "detail": text}`` with the right status (DESIGN.md §4)."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from app.errors import (
+    INTERNAL_ERROR,
+    MALFORMED_JSON,
+    METHOD_NOT_ALLOWED,
+    NOT_FOUND,
+    VALIDATION_ERROR,
+    ApiError,
+)
+
+_LOG = logging.getLogger("app.errors")
+_MAX_SHOWN_INPUT = 80  # characters of an offending value quoted back in a detail
+_HTTP_CODES = {400: MALFORMED_JSON, 404: NOT_FOUND, 405: METHOD_NOT_ALLOWED}
+
+
+def error_response(
+    status: int, code: str, detail: str, headers: Mapping[str, str] | None = None
+) -> JSONResponse:
+    return JSONResponse(status_code=status, content={"error": code, "detail": detail}, headers=headers)
+
+
+def _location(loc: Sequence[Any]) -> str:
+    """``("body", "camera", "width")`` -> ``camera.width``; list indices as ``[0]``."""
+    parts: list[str] = []
+    for item in loc[1:] if loc and loc[0] == "body" else loc:
+        if isinstance(item, int):
+            parts.append(f"[{item}]")
+        else:
+            parts.append(f".{item}" if parts else str(item))
+    return "".join(parts) or "body"
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= _MAX_SHOWN_INPUT else text[: _MAX_SHOWN_INPUT - 3] + "..."
+
+
+def validation_detail(errors: Sequence[Any]) -> str:
+    """One line per problem: field path, pydantic's message, and the value that was sent."""
+    lines = []
+    for error in errors:
+        line = f"{_location(error.get('loc', ()))}: {error.get('msg', 'invalid')}"
+        if error.get("type") not in {"missing", "extra_forbidden"} and "input" in error:
+            line += f" (got {_shown(error['input'])})"
+        elif error.get("type") == "extra_forbidden":
+            line += " (unknown field)"
+        lines.append(line)
+    return "; ".join(lines)
+
+
+async def _api_error(_: Request, error: Exception) -> JSONResponse:
+    assert isinstance(error, ApiError)
+    return error_response(error.status, error.code, error.detail)
+
+
+async def _validation_error(_: Request, error: Exception) -> JSONResponse:
+    assert isinstance(error, RequestValidationError)
+    errors = list(error.errors())
+    malformed = [e for e in errors if e.get("type") == "json_invalid"]
+    if malformed:
+        reason = malformed[0].get("ctx", {}).get("error", "not JSON")
+        position = malformed[0].get("loc", ("body", "?"))[-1]
+        return error_response(
+            400, MALFORMED_JSON, f"the request body is not valid JSON: {reason} at byte {position}"
+        )
+    return error_response(422, VALIDATION_ERROR, validation_detail(errors))
+
+
+async def _http_error(request: Request, error: Exception) -> JSONResponse:
+    assert isinstance(error, StarletteHTTPException)
+    status = error.status_code
+    if status == 404:
+        detail = f"no route {request.method} {request.url.path}; the API is described at /docs"
+    elif status == 405:
+        allowed = (error.headers or {}).get("Allow", "")
+        detail = f"{request.method} is not allowed on {request.url.path}; allowed: {allowed}"
+    else:
+        detail = str(error.detail)
+    return error_response(status, _HTTP_CODES.get(status, f"http_{status}"), detail, headers=error.headers)
+
+
+async def _unexpected_error(request: Request, error: Exception) -> JSONResponse:
+    _LOG.exception("unhandled_error", extra={"method": request.method, "path": request.url.path})
+    return error_response(
+        500,
+        INTERNAL_ERROR,
+        f"unexpected {type(error).__name__} while serving the request; see the server log",
+    )
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    """Register the handlers that shape every error body."""
+    app.add_exception_handler(ApiError, _api_error)
+    app.add_exception_handler(RequestValidationError, _validation_error)
+    app.add_exception_handler(StarletteHTTPException, _http_error)
+    app.add_exception_handler(Exception, _unexpected_error)

@@ -1,0 +1,507 @@
+"""Request and response bodies of the native API (DESIGN.md §4), one family per resource.
+
+Every field carries a description and an example: they are the OpenAPI documentation at ``/docs``.
+Limits that depend on the service settings (largest camera, longest utterance, most turns) are
+checked in ``app.limits`` because a schema cannot read settings; static ranges live here.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, JsonValue, model_validator
+
+from agent.planning import PlanSource, Speaker
+from agent.session import Mode, NavigatorName, PerceptionName, PlannerName
+from symbolic.thor import CAMERA_HEIGHT_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, TEACH_DRIVER_ACTIONS
+
+_BASE64: dict[str, JsonValue] = {"contentEncoding": "base64"}
+
+
+class RequestModel(BaseModel):
+    """Bodies clients send: unknown fields are errors (a typo must not be silently ignored)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ResponseModel(BaseModel):
+    """Bodies the service sends."""
+
+
+# --- sessions -----------------------------------------------------------------------------------
+
+
+class CameraSpec(RequestModel):
+    """The caller's egocentric camera; frames sent to the step route must have this size."""
+
+    width: int = Field(
+        ge=16, description="Image width in pixels (at most the setting max_image_side).", examples=[900]
+    )
+    height: int = Field(
+        ge=16, description="Image height in pixels (at most the setting max_image_side).", examples=[900]
+    )
+    hfov_deg: float = Field(
+        gt=0.0, lt=180.0, description="Horizontal field of view in degrees, in (0, 180).", examples=[90.0]
+    )
+    height_m: float = Field(
+        default=CAMERA_HEIGHT_M,
+        gt=0.0,
+        le=3.0,
+        description=f"Camera height above the floor in metres (AI2-THOR's default agent: {CAMERA_HEIGHT_M}).",
+        examples=[CAMERA_HEIGHT_M],
+    )
+
+
+class Utterance(RequestModel):
+    """One dialogue turn. "Follower" (TATC's word) is stored as "Driver" (TEACh's word for the same agent)."""
+
+    speaker: Literal["Commander", "Driver", "Follower"] = Field(
+        description='Who spoke: "Commander" (knows the task) or "Driver"/"Follower" (this agent).',
+        examples=["Commander"],
+    )
+    text: str = Field(
+        min_length=1,
+        pattern=r"\S",
+        description="What was said; not blank, at most the setting max_utterance_chars characters.",
+        examples=["Could you make me a slice of toast?"],
+    )
+
+    def normalized_speaker(self) -> Speaker:
+        """TEACh's name for the speaker."""
+        return "Commander" if self.speaker == "Commander" else "Driver"
+
+
+class UtteranceCreate(Utterance):
+    """A new turn for an existing session."""
+
+
+class HistoryAction(BaseModel):
+    """One entry of a TEACh EDH ``driver_action_history``; other TEACh fields are ignored."""
+
+    model_config = ConfigDict(extra="ignore", allow_inf_nan=False)
+
+    action_name: str = Field(
+        min_length=1,
+        max_length=64,
+        description="TEACh action name, e.g. Forward, Pickup, Text.",
+        examples=["Pickup"],
+    )
+    action_id: int | None = Field(
+        default=None,
+        description="TEACh action_id (default_definitions.json), e.g. 200 for Pickup.",
+        examples=[200],
+    )
+    action_idx: int | None = Field(
+        default=None, ge=0, le=35, description="TEACh action_idx in 0..35, e.g. 15 for Pickup.", examples=[15]
+    )
+    time_start: float | None = Field(
+        default=None, ge=0.0, description="Seconds since the game started.", examples=[12.4]
+    )
+    obj_interaction_action: int | None = Field(
+        default=None,
+        ge=0,
+        le=1,
+        description="1 when the action interacts with an object, else 0.",
+        examples=[1],
+    )
+    oid: str | None = Field(
+        default=None,
+        max_length=256,
+        description="AI2-THOR objectId of the object acted on, or null.",
+        examples=["Knife|+01.00|+00.90|-00.50"],
+    )
+    x: float | None = Field(
+        default=None,
+        ge=0.0,
+        le=1.0,
+        description="Click point column as a fraction of the width.",
+        examples=[0.52],
+    )
+    y: float | None = Field(
+        default=None,
+        ge=0.0,
+        le=1.0,
+        description="Click point row as a fraction of the height.",
+        examples=[0.61],
+    )
+
+
+class History(RequestModel):
+    """What the driver did before the session started (EDH): actions and, optionally, the view before each."""
+
+    actions: list[HistoryAction] = Field(
+        description="TEACh driver_action_history entries, oldest first.",
+        examples=[
+            [{"action_name": "Forward"}, {"action_name": "Pickup", "oid": "Knife|+01.00|+00.90|-00.50"}]
+        ],
+    )
+    images: list[str] | None = Field(
+        default=None,
+        description="Base64 PNG or JPEG frames, one per action (the view just before it), camera-sized.",
+        examples=[None],
+        json_schema_extra=_BASE64,
+    )
+
+
+class SubgoalIn(RequestModel):
+    """A subgoal as an object; action aliases (PickUp, Put, Cut, GoTo) and object synonyms are accepted."""
+
+    action: str = Field(
+        min_length=1,
+        max_length=32,
+        description="Navigate, Pickup, Place, Open, Close, ToggleOn, ToggleOff, Slice or Pour.",
+        examples=["Pickup"],
+    )
+    object: str = Field(
+        min_length=1,
+        max_length=64,
+        description="AI2-THOR object type or a common name for it.",
+        examples=["Knife"],
+    )
+
+
+class SessionCreate(RequestModel):
+    """A new session. Camera default: 900x900, 90° (TEACh) for edh/tfd/tatc; 300x300, 60° (ALFRED) for
+    instruction. Planner default: "oracle" when subgoals are given, else "model"."""
+
+    mode: Mode = Field(
+        description="edh, tfd or tatc (TEACh), or instruction (ALFRED: one high-level instruction).",
+        examples=["tfd"],
+    )
+    camera: CameraSpec | None = Field(
+        default=None,
+        description="Camera of the frames; omitted: TEACh's 900x900 at 90°, or ALFRED's 300x300 at 60° for "
+        "mode instruction.",
+        examples=[{"width": 900, "height": 900, "hfov_deg": 90.0}],
+    )
+    perception: PerceptionName = Field(
+        default="oracle",
+        description="oracle: each step sends depth and instance segmentation; learned: RGB only.",
+        examples=["oracle"],
+    )
+    planner: PlannerName | None = Field(
+        default=None,
+        description='"oracle" follows the given subgoals (after repair); "model" plans from the dialogue. '
+        'Omitted: "oracle" when subgoals are given, else "model".',
+        examples=["oracle"],
+    )
+    navigator: NavigatorName = Field(
+        default="fmm",
+        description="fmm: fast marching (JARVIS); vin: value iteration (HLSM).",
+        examples=["fmm"],
+    )
+    subgoals: str | list[str] | list[SubgoalIn] | None = Field(
+        default=None,
+        description='Subgoals for the oracle planner: text ("Navigate Knife, Pickup Knife"), a list of '
+        'such strings, TEACh\'s flat word list ["Navigate", "Knife"], or {action, object} objects.',
+        examples=["Slice Bread"],
+    )
+    dialogue: list[Utterance] = Field(
+        default_factory=list,
+        description="The dialogue so far, oldest first (at most the setting max_dialogue_turns).",
+        examples=[[{"speaker": "Commander", "text": "Please slice the bread."}]],
+    )
+    history: History | None = Field(
+        default=None,
+        description="EDH only: the driver's past actions (and frames); their subgoals set the agent's belief "
+        "(what it holds, what is open) before the future plan is repaired.",
+        examples=[None],
+    )
+    instruction: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=2000,
+        description="Mode instruction only, and required there: the ALFRED goal, e.g. a task description.",
+        examples=[None],
+    )
+    seed: int = Field(
+        default=0, ge=0, description="Seed for every random choice of this session.", examples=[0]
+    )
+
+    @model_validator(mode="after")
+    def _fields_fit_mode(self) -> SessionCreate:
+        if self.mode == "instruction" and self.instruction is None:
+            raise ValueError("mode 'instruction' needs the field 'instruction' (the ALFRED goal text)")
+        if self.mode != "instruction" and self.instruction is not None:
+            raise ValueError(
+                f"field 'instruction' is for mode 'instruction'; mode {self.mode!r} uses 'dialogue'"
+            )
+        if self.history is not None and self.mode != "edh":
+            raise ValueError(
+                f"field 'history' is for mode 'edh' (TEACh EDH); mode {self.mode!r} has no history"
+            )
+        return self
+
+    def chosen_planner(self) -> PlannerName:
+        """The planner asked for, or the default that the field description promises."""
+        if self.planner is not None:
+            return self.planner
+        return "oracle" if self.subgoals is not None else "model"
+
+
+class SubgoalOut(ResponseModel):
+    """One subgoal of a plan."""
+
+    action: str = Field(description="Subgoal action.", examples=["Pickup"])
+    object: str = Field(description="AI2-THOR object type.", examples=["Knife"])
+    text: str = Field(
+        description="Text form, as language models read and write it.", examples=["Pickup Knife"]
+    )
+
+
+class RepairEventOut(ResponseModel):
+    """One change a task-level commonsense rule made to the plan (JARVIS Algorithm 2)."""
+
+    rule: str = Field(description="Name of the rule that fired.", examples=["slice-needs-knife"])
+    index: int = Field(description="Position in the plan where the rule acted.", examples=[0])
+    reason: str = Field(
+        description="Why, in words.", examples=["Slice Bread needs a knife in hand; nothing is held"]
+    )
+    removed: list[SubgoalOut] = Field(description="Subgoals the rule removed.", examples=[[]])
+    inserted: list[SubgoalOut] = Field(
+        description="Subgoals the rule inserted.",
+        examples=[[{"action": "Pickup", "object": "Knife", "text": "Pickup Knife"}]],
+    )
+
+
+class PlanOut(ResponseModel):
+    """The agent's future plan after repair, and where execution stands in it."""
+
+    subgoals: list[SubgoalOut] = Field(
+        description="The repaired plan, in order.",
+        examples=[[{"action": "Navigate", "object": "Knife", "text": "Navigate Knife"}]],
+    )
+    text: str = Field(
+        description="The plan in text form.",
+        examples=["Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread"],
+    )
+    pointer: int = Field(
+        description="Index of the subgoal being executed; len(subgoals) when done.", examples=[0]
+    )
+    source: PlanSource = Field(
+        description="oracle: given subgoals; model: the language planner; none: no plan yet.",
+        examples=["oracle"],
+    )
+    repair_log: list[RepairEventOut] = Field(
+        description="Every change the repair rules made to the planned subgoals, in order.",
+        examples=[
+            [
+                {
+                    "rule": "slice-needs-knife",
+                    "index": 0,
+                    "reason": "no knife in hand",
+                    "removed": [],
+                    "inserted": [{"action": "Pickup", "object": "Knife", "text": "Pickup Knife"}],
+                }
+            ]
+        ],
+    )
+
+
+class DialogueTurnOut(ResponseModel):
+    """One recorded turn, with TEACh's speaker names."""
+
+    speaker: Speaker = Field(description="Commander or Driver.", examples=["Commander"])
+    text: str = Field(description="What was said.", examples=["Please slice the bread."])
+
+
+class SessionPublic(ResponseModel):
+    """A session as clients see it."""
+
+    session_id: str = Field(
+        description="Id to use in /v1/sessions/{session_id}/...", examples=["3f2c9a0e5b7d4c1e"]
+    )
+    mode: Mode = Field(description="Benchmark mode.", examples=["tfd"])
+    camera: CameraSpec = Field(
+        description="Camera the step frames must match.",
+        examples=[{"width": 900, "height": 900, "hfov_deg": 90.0, "height_m": CAMERA_HEIGHT_M}],
+    )
+    perception: PerceptionName = Field(description="Perception back-end.", examples=["oracle"])
+    planner: str = Field(description="Planner in use.", examples=["oracle"])
+    navigator: NavigatorName = Field(description="Navigator in use.", examples=["fmm"])
+    seed: int = Field(description="Seed of the session's random choices.", examples=[0])
+    instruction: str | None = Field(description="ALFRED goal text (mode instruction).", examples=[None])
+    plan: PlanOut = Field(
+        description="Current plan and pointer.",
+        examples=[{"subgoals": [], "text": "", "pointer": 0, "source": "oracle", "repair_log": []}],
+    )
+    history_subgoals: list[SubgoalOut] = Field(
+        description="EDH: subgoals the history already did (from driver_action_history).",
+        examples=[[{"action": "Navigate", "object": "Knife", "text": "Navigate Knife"}]],
+    )
+    dialogue: list[DialogueTurnOut] = Field(
+        description="All turns so far, oldest first.",
+        examples=[[{"speaker": "Commander", "text": "Please slice the bread."}]],
+    )
+    step: int = Field(description="Actions returned so far.", examples=[0])
+    done: bool = Field(description="True once the agent returned Stop or hit a limit.", examples=[False])
+    created_at: datetime = Field(
+        description="Creation time (UTC, ISO 8601).", examples=["2024-05-01T12:00:00Z"]
+    )
+    updated_at: datetime = Field(
+        description="Last change of the session's state (UTC, ISO 8601).", examples=["2024-05-01T12:00:05Z"]
+    )
+
+
+class UtteranceResult(ResponseModel):
+    """The session after a new turn, and whether the turn changed the plan."""
+
+    session: SessionPublic = Field(
+        description="The session after recording the turn.",
+        examples=[{"session_id": "3f2c9a0e5b7d4c1e", "mode": "tfd"}],
+    )
+    replanned: bool = Field(description="True when the turn produced a new plan.", examples=[False])
+    note: str = Field(
+        description="Why the plan did or did not change.",
+        examples=[
+            "recorded; the oracle planner follows its given subgoals and does not re-plan from dialogue"
+        ],
+    )
+
+
+# --- steps --------------------------------------------------------------------------------------
+
+
+class Pose(RequestModel):
+    """The agent's pose in the world frame, when the caller knows it (else it is dead-reckoned)."""
+
+    x: float = Field(description="East position in metres.", examples=[1.25])
+    z: float = Field(description="North position in metres.", examples=[-0.5])
+    yaw: float = Field(
+        ge=0.0, lt=360.0, description="Heading in degrees, [0, 360); 0 faces +z.", examples=[90.0]
+    )
+    horizon: float = Field(
+        ge=HORIZON_MIN_DEG,
+        le=HORIZON_MAX_DEG,
+        description=f"Camera pitch in degrees, positive looks down (AI2-THOR), within "
+        f"[{HORIZON_MIN_DEG}, {HORIZON_MAX_DEG}].",
+        examples=[30.0],
+    )
+
+
+def _is_driver_action(name: str) -> str:
+    if name not in TEACH_DRIVER_ACTIONS:
+        raise ValueError(f"{name!r} is not a TEACh driver action; known: {', '.join(TEACH_DRIVER_ACTIONS)}")
+    return name
+
+
+DriverAction = Annotated[str, AfterValidator(_is_driver_action)]
+
+
+class StepRequest(RequestModel):
+    """One egocentric observation. Oracle perception needs depth + segmentation; learned needs rgb."""
+
+    rgb: str | None = Field(
+        default=None,
+        description="Base64 PNG or JPEG colour frame of the camera's size.",
+        examples=["iVBORw0KGgo..."],
+        json_schema_extra=_BASE64,
+    )
+    depth: str | None = Field(
+        default=None,
+        description="Base64 depth: a 16-bit PNG in millimetres (png16_mm) or raw little-endian float32 "
+        "metres, row-major height x width (float32_m). No NaN, no negatives.",
+        examples=["iVBORw0KGgo..."],
+        json_schema_extra=_BASE64,
+    )
+    depth_encoding: Literal["png16_mm", "float32_m"] = Field(
+        default="png16_mm", description="Encoding of depth and depth_uncertainty.", examples=["png16_mm"]
+    )
+    depth_uncertainty: str | None = Field(
+        default=None,
+        description="Base64 width of the 90% interval of each depth value, same encoding as depth "
+        "(HLSM's depth confidence, eq. 5).",
+        examples=[None],
+        json_schema_extra=_BASE64,
+    )
+    segmentation: str | None = Field(
+        default=None,
+        description="Base64 PNG (16- or 8-bit, one channel) of instance ids, camera-sized.",
+        examples=["iVBORw0KGgo..."],
+        json_schema_extra=_BASE64,
+    )
+    segmentation_legend: dict[int, str] | None = Field(
+        default=None,
+        description="Instance id -> AI2-THOR object type; ids absent here are unlabelled pixels.",
+        examples=[{"1": "Knife", "2": "CounterTop"}],
+    )
+    pose: Pose | None = Field(
+        default=None,
+        description="Agent pose if known.",
+        examples=[{"x": 1.25, "z": -0.5, "yaw": 90.0, "horizon": 30.0}],
+    )
+    last_action_success: bool | None = Field(
+        default=None,
+        description="Whether the previous action succeeded; omitted: inferred from the image change.",
+        examples=[True],
+    )
+    step: int | None = Field(
+        default=None,
+        ge=0,
+        description="Index of this step, for idempotent retries; must be the session's next step.",
+        examples=[0],
+    )
+    held_object: str | None = Field(
+        default=None,
+        description="Object type in the agent's hand, if the caller knows it.",
+        examples=["Knife"],
+    )
+
+
+class StepResult(ResponseModel):
+    """The agent's next action."""
+
+    action: DriverAction = Field(
+        description=f"One of TEACh's {len(TEACH_DRIVER_ACTIONS)} driver actions.",
+        examples=["Pickup"],
+        json_schema_extra={"enum": list(TEACH_DRIVER_ACTIONS)},
+    )
+    x: float | None = Field(
+        ge=0.0,
+        le=1.0,
+        description="Click column as a fraction of the width (object actions).",
+        examples=[0.5],
+    )
+    y: float | None = Field(
+        ge=0.0, le=1.0, description="Click row as a fraction of the height (object actions).", examples=[0.62]
+    )
+    subgoal: str | None = Field(description="Subgoal being executed.", examples=["Pickup Knife"])
+    plan: PlanOut = Field(
+        description="Plan and pointer after this step.",
+        examples=[{"subgoals": [], "text": "", "pointer": 0, "source": "oracle", "repair_log": []}],
+    )
+    utterance: str | None = Field(
+        description="What the agent says, if anything.", examples=["What should I do next?"]
+    )
+    done: bool = Field(description="True when the episode ends with this action.", examples=[False])
+    step: int = Field(description="Index of this step.", examples=[0])
+    reason: str = Field(description="Why this action, in words.", examples=["knife visible within reach"])
+
+
+# --- service ------------------------------------------------------------------------------------
+
+
+class ErrorBody(ResponseModel):
+    """Every error response (DESIGN.md §4)."""
+
+    error: str = Field(description="Stable machine-readable code.", examples=["session_not_found"])
+    detail: str = Field(
+        description="Human explanation naming the offending field or value.",
+        examples=["no session '3f2c9a0e5b7d4c1e' (never created, deleted, or idle past the TTL)"],
+    )
+
+
+class HealthOut(ResponseModel):
+    """Liveness."""
+
+    status: Literal["ok"] = Field(description="Always ok when the process answers.", examples=["ok"])
+    version: str = Field(description="Service version (pyproject.toml).", examples=["0.1.0"])
+
+
+class ReadyOut(ResponseModel):
+    """Readiness: the store and the ontology are loaded."""
+
+    status: Literal["ready"] = Field(description="ready when requests can be served.", examples=["ready"])
+    sessions: int = Field(description="Live sessions.", examples=[3])
+    object_types: int = Field(description="Object types in the loaded ontology.", examples=[140])

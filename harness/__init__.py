@@ -1,0 +1,1 @@
+"""Our household simulator harness: worlds, renderer, actions, tasks, expert, episodes, runner."""

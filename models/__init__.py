@@ -1,0 +1,1 @@
+"""Neural parts (planner, goal transformer, depth and segmentation) and their training code."""
