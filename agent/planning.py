@@ -15,8 +15,9 @@ from typing import Literal, Protocol
 
 from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
+from symbolic.predicates import POUR_BASINS
 from symbolic.repair import RepairEvent, repair_plan
-from symbolic.subgoals import Subgoal, parse_subgoals
+from symbolic.subgoals import Subgoal, SubgoalAction, parse_subgoals
 
 Speaker = Literal["Commander", "Driver"]
 """TEACh's speaker names (``dialog_history``); TATC's "Follower" is the Driver."""
@@ -101,6 +102,35 @@ def belief_after(history: Sequence[Subgoal], ontology: Ontology) -> BeliefState:
     return belief
 
 
+def assume_poured_containers_filled(
+    plan: Sequence[Subgoal], belief: BeliefState, ontology: Ontology
+) -> list[RepairEvent]:
+    """Trust the oracle about liquids it empties: a given plan that pours a container out into a sink
+    (a mug left full of water, emptied before it takes coffee) says that container holds liquid, so the
+    belief learns it, in place, before repair; else repair would drop the Pour as pointless and the mug
+    would stay full. A Pour into anything else keeps repair's "fill it first", which does no harm when
+    the container was full already. Returns one log entry per assumption."""
+    events = []
+    state = belief.copy()
+    for index, subgoal in enumerate(plan):
+        held = state.held
+        emptying = subgoal.action is SubgoalAction.POUR and subgoal.obj in POUR_BASINS
+        if emptying and held is not None and held not in state.filled:
+            belief.filled.add(held)
+            state.filled.add(held)
+            events.append(
+                RepairEvent(
+                    "assume-filled",
+                    index,
+                    f"the plan pours from the {held}, so the {held} holds liquid",
+                    removed=(),
+                    inserted=(),
+                )
+            )
+        state = state.apply(subgoal, ontology)
+    return events
+
+
 class OraclePlanner:
     """Follows the caller's subgoals: parse them with the ontology, then repair (Algorithm 2 l. 20-46)."""
 
@@ -119,9 +149,10 @@ class OraclePlanner:
             raise SubgoalsRequired("the oracle planner needs at least one subgoal; the given list is empty")
         self._check_length(len(given), "given")
         belief = belief_after(context.history_subgoals, self.ontology)
+        assumed = assume_poured_containers_filled(given, belief, self.ontology)
         repaired = repair_plan(given, self.ontology, belief)
         self._check_length(len(repaired.plan), "repaired")
-        return PlanOutcome(plan=tuple(repaired.plan), repair_log=tuple(repaired.log), source="oracle")
+        return PlanOutcome(plan=tuple(repaired.plan), repair_log=(*assumed, *repaired.log), source="oracle")
 
     def _check_length(self, length: int, stage: str) -> None:
         if length > self.config.max_subgoals:

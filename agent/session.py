@@ -1,21 +1,75 @@
-"""The state of one conversation with the agent: what it was told, its plan, and where it stands.
+"""The state of one conversation with the agent, and its step: observation in, action out.
 
 JARVIS (seed 002) Algorithm 1 keeps exactly this between simulator steps: the future subgoals
-``G_future`` with their ``pointer``, the step count and whether it must stop. Perception and the map
-join this object with the agent issue; everything here is small and plain so a session serializes.
+``G_future`` with their ``pointer``, the semantic map, the step count and whether it must stop; each step
+runs Algorithm 3. One step here (DESIGN.md §3): infer the last action's success -> the pose (the caller's,
+or dead reckoning) -> perception (the current subgoal's object is the target of HLSM eq. (5)) -> record a
+blocked move -> map update (HLSM eq. (1)) -> the executor decides -> a trace entry. Everything that can
+refuse the input (perception included) runs before anything changes, so a refused step leaves the
+session as it was.
+
+Frames. The map lives in the agent's own frame. Without an EDH history it is the caller's world frame
+(the first pose, or the origin when poses never come). With a history replayed from an unknown start, the
+first world pose that arrives fixes a rigid transform (a multiple of 90° and a shift) from the caller's
+frame to the map's, so the live frames land where the dead-reckoned history frames did.
 """
 
 from __future__ import annotations
 
+import io
+import math
+import pickle
+import time
+import zlib
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
-from typing import Literal
+from typing import Any, Literal
 
-from agent.geometry import Camera
-from agent.planning import DialogueTurn, Planner, PlanningContext, PlanSource, Speaker
+import numpy as np
+
+from agent.executor import (
+    Decision,
+    Executor,
+    ExecutorConfig,
+    FrameDigest,
+    HistoryStep,
+    SessionMapView,
+    StepInputs,
+    SuccessConfig,
+    digest,
+    history_poses,
+    holding_before,
+    infer_success,
+    instance_colour,
+)
+from agent.executor.config import STAND_CLEARANCE_M
+from agent.geometry import Camera, Pose, depth_to_points, track_pose
+from agent.mapping import MapConfig, SemanticMap, render_map_png
+from agent.navigation import make_navigator
+from agent.navigation.base import Navigator
+from agent.navigation.fmm import FmmConfig, FmmNavigator
+from agent.perception import Observation, ObservationError, Perception, make_perception
+from agent.planning import (
+    DialogueTurn,
+    Planner,
+    PlanningContext,
+    PlanSource,
+    Speaker,
+    belief_after,
+    make_planner,
+)
+from agent.trace import Trace, TraceEntry
+from symbolic.ontology import Ontology, load_ontology
 from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, format_subgoals
+from symbolic.thor import (
+    ALFRED_LOOK_STEP_DEG,
+    MAX_FAILED_ACTIONS,
+    MAX_STEPS,
+    OBJECT_ACTIONS,
+    TEACH_LOOK_STEP_DEG,
+)
 
 Mode = Literal["edh", "tfd", "tatc", "instruction"]
 """TEACh's Execution from Dialogue History, Trajectory from Dialogue, Two-Agent Task Completion; ALFRED."""
@@ -29,10 +83,75 @@ NavigatorName = Literal["fmm", "vin"]
 PlannerName = Literal["model", "oracle"]
 """The learned language planner, or subgoals given by the caller."""
 
+START_HORIZON_DEG: dict[str, float] = {"instruction": 30.0}
+"""Camera pitch assumed at the start when the caller sends no pose: ALFRED starts looking 30° down;
+TEACh's agents (and our harness) start level, which is the default for the other modes."""
+
+MOVES: frozenset[str] = frozenset({"Forward", "Backward", "Pan Left", "Pan Right"})
+"""Motions that translate the body (a blocked one leaves a collision in the map)."""
+
+ASK_NEXT = "What should I do next?"
+"""The follower's question when its plan runs out in TATC."""
+
+EXECUTOR_SIZE_EVERY = 20
+"""Steps between measurements of the executor's pickled size for the trace (pickling costs ~0.3 ms)."""
+
+
+@dataclass(frozen=True)
+class SessionLimits:
+    """TEACh's episode limits, from the service settings."""
+
+    max_steps: int = MAX_STEPS  # actions per episode
+    max_failed_actions: int = MAX_FAILED_ACTIONS  # failed actions per episode
+
+
+@dataclass(frozen=True)
+class StepDecision:
+    """What one step answered; kept so a retried request gets the same answer (idempotent retries)."""
+
+    step: int
+    action: str
+    x: float | None
+    y: float | None
+    subgoal: Subgoal | None
+    plan: tuple[Subgoal, ...]
+    pointer: int
+    plan_source: PlanSource
+    repair_log: tuple[RepairEvent, ...]
+    utterance: str | None
+    done: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class FrameAlignment:
+    """Caller's world frame -> the map's frame: rotate by ``-yaw_deg`` about the origin, then shift."""
+
+    yaw_deg: float = 0.0  # multiple of 90
+    dx: float = 0.0  # metres
+    dz: float = 0.0  # metres
+
+    @classmethod
+    def between(cls, world: Pose, mapped: Pose) -> FrameAlignment:
+        """The alignment taking the world pose ``world`` onto the map-frame pose ``mapped``."""
+        yaw = (round((world.yaw - mapped.yaw) / 90.0) * 90) % 360
+        x, z = _rotate(world.x, world.z, yaw)
+        return cls(float(yaw), mapped.x - x, mapped.z - z)
+
+    def to_map(self, pose: Pose) -> Pose:
+        x, z = _rotate(pose.x, pose.z, self.yaw_deg)
+        return replace(pose, x=x + self.dx, z=z + self.dz, yaw=(pose.yaw - self.yaw_deg) % 360.0)
+
+
+def _rotate(x: float, z: float, yaw_deg: float) -> tuple[float, float]:
+    """(x, z) seen from a frame turned ``yaw_deg`` right: headings lose ``yaw_deg``."""
+    a = math.radians(yaw_deg)
+    return x * math.cos(a) - z * math.sin(a), x * math.sin(a) + z * math.cos(a)
+
 
 @dataclass
 class AgentSession:
-    """One conversation: configuration, dialogue, the repaired plan and progress through it."""
+    """One conversation: configuration, dialogue, the repaired plan, the map and progress through it."""
 
     session_id: str
     mode: Mode
@@ -49,10 +168,27 @@ class AgentSession:
     repair_log: list[RepairEvent]
     created_at: datetime
     updated_at: datetime
+    executor: Executor
+    perception_backend: Perception = field(repr=False)
+    ontology: Ontology = field(repr=False)
+    limits: SessionLimits = field(default_factory=SessionLimits)
     pointer: int = 0  # index into ``plan`` of the subgoal being executed
     step: int = 0  # actions returned so far (TEACh stops at thor.MAX_STEPS)
     done: bool = False
     given_subgoals: str | Sequence[object] | None = field(default=None, repr=False)
+    semantic_map: SemanticMap | None = field(default=None, repr=False)
+    pose: Pose | None = None  # where the agent stands, in the map's frame
+    alignment: FrameAlignment | None = None  # fixed by the first world pose (module docstring)
+    dead_reckoned: bool = False  # the pose so far comes from dead reckoning (history or no poses)
+    last_action: str | None = None
+    last_world_pose: Pose | None = None  # the caller's pose at the previous step, in the map's frame
+    last_digest: FrameDigest | None = field(default=None, repr=False)
+    last_decision: StepDecision | None = None
+    last_path: tuple[tuple[int, int], ...] = ()
+    last_target: str | None = None
+    trace: Trace = field(default_factory=Trace, repr=False)
+    executor_size: int | None = None  # bytes, last measured by ``_executor_size``
+    success_config: SuccessConfig = field(default_factory=SuccessConfig)
 
     @classmethod
     def start(
@@ -69,9 +205,17 @@ class AgentSession:
         dialogue: Sequence[DialogueTurn] = (),
         history_subgoals: Sequence[Subgoal] = (),
         given_subgoals: str | Sequence[object] | None = None,
+        perception_backend: Perception | None = None,
+        history: Sequence[HistoryStep] = (),
+        history_start: Pose | None = None,
+        limits: SessionLimits | None = None,
+        ontology: Ontology | None = None,
         now: datetime | None = None,
     ) -> AgentSession:
-        """A new session with its first plan (Algorithm 1, line 1: plan before the first step)."""
+        """A new session with its first plan (Algorithm 1, line 1: plan before the first step), its
+        perception back-end (``make_perception`` unless given), and the EDH history (``history``)
+        replayed into the map."""
+        ontology = ontology or load_ontology()
         context = PlanningContext(
             dialogue=tuple(dialogue),
             history_subgoals=tuple(history_subgoals),
@@ -79,8 +223,22 @@ class AgentSession:
             given_subgoals=given_subgoals,
         )
         outcome = planner.plan(context)
+        backend = perception_backend or make_perception(perception, camera)
+        limits = limits or SessionLimits()
+        look_step = ALFRED_LOOK_STEP_DEG if mode == "instruction" else TEACH_LOOK_STEP_DEG
+        executor = Executor(
+            ontology,
+            build_navigator(navigator, STAND_CLEARANCE_M),
+            belief_after(history_subgoals, ontology),
+            np.random.default_rng(seed),
+            ExecutorConfig(
+                look_step_deg=look_step,
+                max_steps=limits.max_steps,
+                max_failed_actions=limits.max_failed_actions,
+            ),
+        )
         started = now or datetime.now(UTC)
-        return cls(
+        session = cls(
             session_id=session_id,
             mode=mode,
             camera=camera,
@@ -96,14 +254,23 @@ class AgentSession:
             repair_log=list(outcome.repair_log),
             created_at=started,
             updated_at=started,
+            executor=executor,
+            perception_backend=backend,
+            ontology=ontology,
+            limits=limits,
             given_subgoals=given_subgoals,
         )
+        if history:
+            session._replay(history, history_start)
+        return session
 
+    # ----- dialogue ----------------------------------------------------------------------------------
     def add_utterance(self, speaker: Speaker, text: str, now: datetime | None = None) -> bool:
         """Record a turn; a commander turn re-plans when the planner reads dialogue. Returns re-planned?
 
         The new plan is computed before anything is changed, so a planner error leaves the session as it
-        was. A re-plan restarts the pointer: the new plan covers only the future.
+        was. A re-plan restarts the pointer: the new plan covers only the future (and a finished TATC
+        episode resumes).
         """
         turn = DialogueTurn(speaker=speaker, text=text)
         replanned = speaker == "Commander" and self.planner.replans_on_dialogue
@@ -113,6 +280,7 @@ class AgentSession:
             self.plan_source = outcome.source
             self.repair_log = list(outcome.repair_log)
             self.pointer = 0
+            self.done = False
         self.dialogue.append(turn)
         self.updated_at = now or datetime.now(UTC)
         return replanned
@@ -132,3 +300,392 @@ class AgentSession:
             instruction=self.instruction,
             given_subgoals=self.given_subgoals,
         )
+
+    # ----- one step ----------------------------------------------------------------------------------
+    @property
+    def look_step_deg(self) -> float:
+        return float(self.executor.config.look_step_deg)
+
+    def step_once(self, obs: Observation, now: datetime | None = None) -> StepDecision:
+        """One step of Algorithm 1: this observation in, the next action out (module docstring).
+
+        Raises ObservationError (before changing anything) when perception cannot use the observation.
+        """
+        started = time.perf_counter()
+        index = self.step
+        previous_action = self.last_action
+        if self.done:
+            return self._record_final(index, "the episode has ended; nothing more to do", now)
+        mapped_pose = self._mapped(obs.pose)
+        success = infer_success(
+            self.last_action,
+            self.last_digest,
+            frame_digest := digest(obs, self.success_config),
+            reported=obs.last_action_success,
+            poses=(self.last_world_pose, mapped_pose)
+            if self.last_world_pose is not None and mapped_pose is not None
+            else None,
+            colours=self._clicked_colours(obs, frame_digest),
+            config=self.success_config,
+        )
+        pose = self._pose_now(mapped_pose, success.success)
+        subgoal = self.current_subgoal()
+        percept = self.perception_backend.perceive(obs, target_type=subgoal.obj if subgoal else None)
+        perceived = time.perf_counter()
+        # ---- nothing has changed so far; from here on the session moves to this step ----
+        if obs.pose is not None and self.alignment is None:
+            self.alignment = (
+                FrameAlignment.between(obs.pose, pose) if self.dead_reckoned else FrameAlignment()
+            )
+            self.dead_reckoned = False
+        self._sync_hand(obs)
+        semantic_map = self._ensure_map(pose)
+        previous = self.pose
+        if self.last_action in MOVES and success.success is False and previous is not None:
+            semantic_map.record_collision(previous, self.last_action)
+            self.executor.navigator.record_collision(previous, self.last_action, semantic_map.frame)
+        holding = self._holding_now(success.success)
+        stats = semantic_map.update(percept, pose, holding=holding)
+        mapped = time.perf_counter()
+        view = SessionMapView(
+            semantic_map,
+            percept,
+            self.camera,
+            pose,
+            holding=holding,
+            last_success=success.success,
+            ignored=self.executor.state.ignored,
+            explore_attempts=self.executor.state.explore_attempts,
+            click_config=self.executor.config.click,
+            stand_clearance_m=self.executor.config.stand_clearance_m,
+        )
+        inputs = StepInputs(index, pose, view, obs, frame_digest, success.success)
+        decision = self.executor.decide(inputs, self.plan, self.pointer)
+        decided = time.perf_counter()
+        self._apply(decision)
+        self.pose = pose
+        self.last_world_pose = mapped_pose
+        self.last_digest = frame_digest
+        self.last_action = decision.action
+        self.last_path = decision.path
+        self.last_target = decision.target_type
+        result = self._answer(index, decision, now)
+        timing = {
+            "perceive": (perceived - started) * 1e3,
+            "map": (mapped - perceived) * 1e3,
+            "decide": (decided - mapped) * 1e3,
+        }
+        timing["total"] = (time.perf_counter() - started) * 1e3
+        self.trace.append(
+            TraceEntry(
+                step=index,
+                time=self.updated_at.isoformat(),
+                inputs=_inputs_summary(obs),
+                last_action=previous_action,
+                last_action_success=success.success,
+                success_evidence=success.evidence,
+                pose={"x": round(pose.x, 3), "z": round(pose.z, 3), "yaw": pose.yaw, "horizon": pose.horizon},
+                map=_map_summary(semantic_map, stats.points, stats.carved),
+                subgoal=str(result.subgoal) if result.subgoal is not None else None,
+                pointer=self.pointer,
+                action=result.action,
+                x=result.x,
+                y=result.y,
+                reason=result.reason,
+                events=list(decision.events),
+                timing_ms={k: round(v, 3) for k, v in timing.items()},
+                state_bytes=self.state_bytes(executor_bytes=self._executor_size(index)),
+            )
+        )
+        return result
+
+    def _mapped(self, world: Pose | None) -> Pose | None:
+        """A caller's world pose in the map's frame (the alignment it would get now, if none yet)."""
+        if world is None:
+            return None
+        if self.alignment is not None:
+            return self.alignment.to_map(world)
+        if self.dead_reckoned and self.pose is not None:
+            return FrameAlignment.between(world, self.pose).to_map(world)
+        return world
+
+    def _pose_now(self, mapped: Pose | None, success: bool | None) -> Pose:
+        """The caller's pose when given, else dead reckoning from the previous pose (DESIGN.md §3)."""
+        if mapped is not None:
+            return mapped
+        previous = self.pose or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.mode, 0.0))
+        self.dead_reckoned = self.dead_reckoned or self.alignment is None
+        return track_pose(
+            previous,
+            reported=None,
+            last_action=self.last_action,
+            last_action_success=success,
+            look_step_deg=self.look_step_deg,
+        )
+
+    def _clicked_colours(self, obs: Observation, frame: FrameDigest) -> tuple[np.ndarray, np.ndarray] | None:
+        """The clicked instance's colour before and now, for an object action that changes no geometry."""
+        pending = self.executor.state.pending
+        if pending is None or pending.click is None or pending.colour is None:
+            return None
+        now = instance_colour(obs, frame, pending.click.instance_id)
+        return None if now is None else (pending.colour, now)
+
+    def _holding_now(self, last_success: bool | None) -> bool:
+        """Whether the hand holds something in this frame: the executor judges the previous action only
+        after the map update, so a Pickup or Place that just worked is taken into account here (else the
+        object just picked up, floating before the camera, would be mapped)."""
+        pending = self.executor.state.pending
+        if pending is not None and last_success is not False:
+            if pending.action == "Pickup":
+                return True
+            if pending.action == "Place":
+                return False
+        return self.executor.state.belief.held is not None
+
+    def _sync_hand(self, obs: Observation) -> None:
+        """The caller's ``held_object`` (when sent) overrides the believed hand."""
+        belief = self.executor.state.belief
+        if obs.held_object is not None and belief.held != obs.held_object:
+            belief.held = obs.held_object
+
+    def _ensure_map(self, pose: Pose) -> SemanticMap:
+        if self.semantic_map is None:
+            self.semantic_map = SemanticMap(self.camera, pose, MapConfig())
+        return self.semantic_map
+
+    def _apply(self, decision: Decision) -> None:
+        self.plan = list(decision.plan)
+        self.pointer = decision.pointer
+        self.repair_log.extend(decision.repairs)
+
+    def _answer(self, index: int, decision: Decision, now: datetime | None) -> StepDecision:
+        utterance = decision.question
+        done = decision.stop
+        if decision.plan_done and self.mode == "tatc":
+            utterance = ASK_NEXT
+            done = not self.planner.replans_on_dialogue  # the commander's next turn can give a new plan
+        self.done = done
+        self.step = index + 1
+        self.updated_at = now or datetime.now(UTC)
+        subgoal = self.current_subgoal()
+        result = StepDecision(
+            step=index,
+            action=decision.action,
+            x=decision.x,
+            y=decision.y,
+            subgoal=subgoal,
+            plan=tuple(self.plan),
+            pointer=self.pointer,
+            plan_source=self.plan_source,
+            repair_log=tuple(self.repair_log),
+            utterance=utterance,
+            done=done,
+            reason=decision.reason,
+        )
+        self.last_decision = result
+        return result
+
+    def _record_final(self, index: int, reason: str, now: datetime | None) -> StepDecision:
+        """After the episode ended: Stop again (TEACh's runners stop calling; curl may not)."""
+        self.step = index + 1
+        self.updated_at = now or datetime.now(UTC)
+        result = StepDecision(
+            step=index,
+            action="Stop",
+            x=None,
+            y=None,
+            subgoal=self.current_subgoal(),
+            plan=tuple(self.plan),
+            pointer=self.pointer,
+            plan_source=self.plan_source,
+            repair_log=tuple(self.repair_log),
+            utterance=None,
+            done=True,
+            reason=reason,
+        )
+        self.last_decision = result
+        self.last_action = "Stop"
+        return result
+
+    # ----- EDH history -------------------------------------------------------------------------------
+    def _replay(self, history: Sequence[HistoryStep], start: Pose | None) -> None:
+        """Project the history frames into the map at their dead-reckoned poses (Algorithm 2 l. 47-55);
+        remember where the history acted on objects when its frames have depth."""
+        origin = start or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.mode, 0.0))
+        actions = [h.action for h in history]
+        poses = history_poses(actions, origin, self.look_step_deg)
+        holding = holding_before(actions)
+        semantic_map = self._ensure_map(origin)
+        for entry, pose, held in zip(history, poses, holding, strict=False):
+            obs = entry.observation
+            if obs is None:
+                continue
+            try:
+                percept = self.perception_backend.perceive(obs, target_type=None)
+            except ObservationError:
+                continue  # a frame this back-end cannot read (TEACh's RGB-only history, oracle perception)
+            semantic_map.update(percept, pose, holding=held)
+            if entry.action in OBJECT_ACTIONS and entry.x is not None and entry.y is not None:
+                self._remember_click(entry, percept.depth, pose)
+        self.pose = poses[-1]
+        self.dead_reckoned = start is None
+        self.alignment = FrameAlignment() if start is not None else None
+
+    def _remember_click(self, entry: HistoryStep, depth: np.ndarray, pose: Pose) -> None:
+        """Where a history object action clicked, as the executor's memory of that object type."""
+        obs = entry.observation
+        assert obs is not None and entry.x is not None and entry.y is not None
+        H, W = depth.shape
+        row, col = min(int(round(entry.y * H)), H - 1), min(int(round(entry.x * W)), W - 1)
+        if depth[row, col] <= 0 or obs.instances is None:
+            return
+        object_type = obs.legend.get(int(obs.instances[row, col]))
+        if object_type is None:
+            return
+        mask = np.zeros((H, W), dtype=bool)
+        mask[row, col] = True
+        point = depth_to_points(depth, self.camera, pose, mask)[0]
+        self.executor.state.memory.where[object_type] = (float(point[0]), float(point[1]), float(point[2]))
+
+    # ----- what a person can look at -----------------------------------------------------------------
+    def map_png(self) -> bytes:
+        """The semantic map picture (agent, planned path, current target, legend); an empty map before the
+        first step."""
+        semantic_map = self.semantic_map or SemanticMap(self.camera, Pose(0.0, 0.0), MapConfig())
+        current = self.current_subgoal()
+        return render_map_png(
+            semantic_map,
+            agent_pose=self.pose,
+            path_cells=self.last_path or None,
+            target_type=self.last_target or (current.obj if current is not None else None),
+        )
+
+    # ----- size and serialization --------------------------------------------------------------------
+    def _executor_size(self, index: int) -> int:
+        """The executor's pickled size, measured every ``EXECUTOR_SIZE_EVERY`` steps (it grows slowly)."""
+        if self.executor_size is None or index % EXECUTOR_SIZE_EVERY == 0:
+            self.executor_size = _executor_bytes(self.executor)
+        return self.executor_size
+
+    def state_bytes(self, *, executor_bytes: int | None = None) -> int:
+        """Bytes this session holds in memory: the map, the trace, the frame digest and the executor (its
+        pickled size; pass a recent ``executor_bytes`` to skip pickling it again)."""
+        map_bytes = self.semantic_map.nbytes if self.semantic_map is not None else 0
+        digest_bytes = self.last_digest.nbytes if self.last_digest is not None else 0
+        if executor_bytes is None:
+            executor_bytes = _executor_bytes(self.executor)
+        return map_bytes + self.trace.nbytes + digest_bytes + executor_bytes
+
+    def to_bytes(self) -> bytes:
+        """A compact snapshot (zlib-compressed pickle) of everything but the process-wide parts (ontology,
+        class table, planner, perception networks), which ``from_bytes`` takes from the new process."""
+        buffer = io.BytesIO()
+        _SessionPickler(buffer, self).dump(self)
+        return zlib.compress(buffer.getvalue(), level=6)
+
+    @classmethod
+    def from_bytes(
+        cls, data: bytes, *, ontology: Ontology | None = None, planner: Planner | None = None
+    ) -> AgentSession:
+        """The session ``to_bytes`` wrote, with this process's ontology, planner and perception."""
+        ontology = ontology or load_ontology()
+        session = _SessionUnpickler(io.BytesIO(zlib.decompress(data)), ontology, planner).load()
+        assert isinstance(session, AgentSession), f"snapshot holds a {type(session).__name__}"
+        return session
+
+
+def build_navigator(name: NavigatorName, clearance_m: float) -> Navigator:
+    """The session's navigator. JARVIS's FMM plans with the clearance the simulator's reachable grid allows
+    (``executor.config.STAND_CLEARANCE_M``); HLSM's VIN tests footprints and takes no radius."""
+    if name == "fmm":
+        return FmmNavigator(FmmConfig(robot_radius_m=clearance_m))
+    return make_navigator(name)
+
+
+def _executor_bytes(executor: Executor) -> int:
+    """Pickled size of the executor's per-session state (its shared parts excluded)."""
+    return len(pickle.dumps((executor.state, executor.navigator), protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def _inputs_summary(obs: Observation) -> dict[str, Any]:
+    summary: dict[str, Any] = {
+        "rgb": obs.rgb is not None,
+        "depth": obs.depth is not None,
+        "depth_uncertainty": obs.depth_uncertainty is not None,
+        "segmentation": obs.instances is not None,
+        "instances_in_legend": len(obs.legend),
+    }
+    if obs.pose is not None:
+        summary["pose"] = {"x": obs.pose.x, "z": obs.pose.z, "yaw": obs.pose.yaw, "horizon": obs.pose.horizon}
+    if obs.last_action_success is not None:
+        summary["last_action_success"] = obs.last_action_success
+    if obs.held_object is not None:
+        summary["held_object"] = obs.held_object
+    return summary
+
+
+def _map_summary(semantic_map: SemanticMap, points: int, carved: int) -> dict[str, Any]:
+    """Map statistics from views the step computed anyway (explored, obstacles, collisions)."""
+    cell_area = semantic_map.config.cell_m**2
+    return {
+        "cells": list(semantic_map.shape),
+        "explored_m2": round(float(np.count_nonzero(semantic_map.explored())) * cell_area, 2),
+        "obstacle_m2": round(float(np.count_nonzero(semantic_map.obstacles())) * cell_area, 2),
+        "collision_cells": int(np.count_nonzero(semantic_map.collisions())),
+        "points": points,
+        "carved": carved,
+    }
+
+
+class _SessionPickler(pickle.Pickler):
+    """Pickles a session, replacing process-wide objects by names (persistent ids)."""
+
+    def __init__(self, file: io.BytesIO, session: AgentSession) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self._shared: dict[int, tuple[str, ...]] = {
+            id(session.ontology): ("ontology",),
+            id(session.planner): ("planner", session.planner.name),
+            id(session.perception_backend): ("perception", session.perception),
+        }
+        classes = session.semantic_map.classes if session.semantic_map is not None else None
+        if classes is not None:
+            self._shared[id(classes)] = ("classes",)
+
+    def persistent_id(self, obj: object) -> tuple[str, ...] | None:
+        return self._shared.get(id(obj))
+
+
+class _SessionUnpickler(pickle.Unpickler):
+    def __init__(self, file: io.BytesIO, ontology: Ontology, planner: Planner | None) -> None:
+        super().__init__(file)
+        self._ontology = ontology
+        self._planner = planner
+        self._camera: Camera | None = None
+
+    def persistent_load(self, pid: Any) -> object:
+        from agent.classes import load_class_index
+
+        kind = pid[0]
+        if kind == "ontology":
+            return self._ontology
+        if kind == "classes":
+            return load_class_index()
+        if kind == "planner":
+            return self._planner or make_planner(pid[1], self._ontology)
+        if kind == "perception":
+            return _LazyPerception(pid[1])
+        raise pickle.UnpicklingError(f"unknown shared object {pid!r}")
+
+    def load(self) -> Any:
+        session = super().load()
+        if isinstance(session, AgentSession) and isinstance(session.perception_backend, _LazyPerception):
+            session.perception_backend = make_perception(session.perception_backend.name, session.camera)
+        return session
+
+
+@dataclass(frozen=True)
+class _LazyPerception:
+    """Placeholder until the session's camera is known (the back-end is built per camera)."""
+
+    name: str

@@ -25,6 +25,7 @@ STEP_OUT_OF_ORDER = "step_out_of_order"
 
 # Session content.
 PLANNER_UNAVAILABLE = "planner_unavailable"
+PERCEPTION_UNAVAILABLE = "perception_unavailable"
 SUBGOALS_REQUIRED = "subgoals_required"
 INVALID_SUBGOALS = "invalid_subgoals"
 UNKNOWN_OBJECT_TYPE = "unknown_object_type"
@@ -39,7 +40,6 @@ MISSING_OBSERVATION = "missing_observation"
 INVALID_IMAGE = "invalid_image"
 INVALID_DEPTH = "invalid_depth"
 INVALID_SEGMENTATION = "invalid_segmentation"
-NOT_IMPLEMENTED = "not_implemented"
 
 
 def unknown_object_type(field: str, name: str, suggestions: Sequence[str]) -> ApiError:

@@ -76,6 +76,23 @@ class UtteranceCreate(Utterance):
     """A new turn for an existing session."""
 
 
+class Pose(RequestModel):
+    """The agent's pose in the world frame, when the caller knows it (else it is dead-reckoned)."""
+
+    x: float = Field(description="East position in metres.", examples=[1.25])
+    z: float = Field(description="North position in metres.", examples=[-0.5])
+    yaw: float = Field(
+        ge=0.0, lt=360.0, description="Heading in degrees, [0, 360); 0 faces +z.", examples=[90.0]
+    )
+    horizon: float = Field(
+        ge=HORIZON_MIN_DEG,
+        le=HORIZON_MAX_DEG,
+        description=f"Camera pitch in degrees, positive looks down (AI2-THOR), within "
+        f"[{HORIZON_MIN_DEG}, {HORIZON_MAX_DEG}].",
+        examples=[30.0],
+    )
+
+
 class HistoryAction(BaseModel):
     """One entry of a TEACh EDH ``driver_action_history``; other TEACh fields are ignored."""
 
@@ -141,6 +158,33 @@ class History(RequestModel):
         description="Base64 PNG or JPEG frames, one per action (the view just before it), camera-sized.",
         examples=[None],
         json_schema_extra=_BASE64,
+    )
+    depth: list[str] | None = Field(
+        default=None,
+        description="Oracle perception: base64 depth of each frame (see depth_encoding), one per action.",
+        examples=[None],
+        json_schema_extra=_BASE64,
+    )
+    depth_encoding: Literal["png16_mm", "float32_m"] = Field(
+        default="png16_mm", description="Encoding of the history depth frames.", examples=["png16_mm"]
+    )
+    segmentation: list[str] | None = Field(
+        default=None,
+        description="Oracle perception: base64 instance-id PNG of each frame, one per action.",
+        examples=[None],
+        json_schema_extra=_BASE64,
+    )
+    segmentation_legend: dict[int, str] | None = Field(
+        default=None,
+        description="Instance id -> object type for every history segmentation frame (ids are stable "
+        "within an episode, as AI2-THOR's are).",
+        examples=[{"1": "Knife", "2": "CounterTop"}],
+    )
+    start_pose: Pose | None = Field(
+        default=None,
+        description="World pose before the first history action, if known (a TEACh game's initial agent "
+        "pose); the history's poses are dead-reckoned from it, else from the agent's own origin.",
+        examples=[{"x": 1.25, "z": -0.5, "yaw": 90.0, "horizon": 0.0}],
     )
 
 
@@ -361,23 +405,6 @@ class UtteranceResult(ResponseModel):
 
 
 # --- steps --------------------------------------------------------------------------------------
-
-
-class Pose(RequestModel):
-    """The agent's pose in the world frame, when the caller knows it (else it is dead-reckoned)."""
-
-    x: float = Field(description="East position in metres.", examples=[1.25])
-    z: float = Field(description="North position in metres.", examples=[-0.5])
-    yaw: float = Field(
-        ge=0.0, lt=360.0, description="Heading in degrees, [0, 360); 0 faces +z.", examples=[90.0]
-    )
-    horizon: float = Field(
-        ge=HORIZON_MIN_DEG,
-        le=HORIZON_MAX_DEG,
-        description=f"Camera pitch in degrees, positive looks down (AI2-THOR), within "
-        f"[{HORIZON_MIN_DEG}, {HORIZON_MAX_DEG}].",
-        examples=[30.0],
-    )
 
 
 def _is_driver_action(name: str) -> str:

@@ -10,7 +10,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
 
-from agent.geometry import Camera
+from agent.executor import HistoryStep
+from agent.geometry import Camera, Pose
+from agent.perception import Perception, make_perception
 from agent.planning import (
     DialogueTurn,
     PlannerConfig,
@@ -20,10 +22,11 @@ from agent.planning import (
     available_planners,
     make_planner,
 )
-from agent.session import AgentSession, Mode
+from agent.session import AgentSession, Mode, PerceptionName, SessionLimits
 from app.errors import (
     HISTORY_MISMATCH,
     INVALID_SUBGOALS,
+    PERCEPTION_UNAVAILABLE,
     PLANNER_UNAVAILABLE,
     SUBGOALS_REQUIRED,
     TOO_MANY_SUBGOALS,
@@ -31,7 +34,7 @@ from app.errors import (
     unknown_object_type,
 )
 from app.limits import check_camera, check_dialogue
-from app.observation import decode_base64, decode_rgb
+from app.observation import history_observation
 from app.schemas import CameraSpec, History, SessionCreate, SubgoalIn
 from app.settings import Settings
 from symbolic.ontology import Ontology, UnknownObjectType
@@ -61,6 +64,22 @@ def planning_errors_as_api_errors(field: str) -> Iterator[None]:
         raise ApiError(413, TOO_MANY_SUBGOALS, f"{field}: {error} (setting JARVIS_MAX_SUBGOALS)") from error
 
 
+def perception_backend(name: PerceptionName, camera: Camera) -> Perception:
+    """The session's perception back-end; 422 ``perception_unavailable`` when this installation cannot
+    build it (an unknown name, or a learned back-end whose trained networks are missing)."""
+    try:
+        return make_perception(name, camera)
+    except KeyError as error:
+        raise ApiError(422, PERCEPTION_UNAVAILABLE, f"perception {name!r}: {error.args[0]}") from error
+    except FileNotFoundError as error:
+        raise ApiError(
+            422,
+            PERCEPTION_UNAVAILABLE,
+            f"perception {name!r} needs trained networks that this installation lacks ({error}); "
+            "use perception 'oracle' (depth and segmentation with every step)",
+        ) from error
+
+
 def _given_subgoals(body: SessionCreate) -> str | list[object] | None:
     """The subgoals in a form ``parse_subgoals`` reads (objects become ``{action, object}`` dicts)."""
     if body.subgoals is None or isinstance(body.subgoals, str):
@@ -68,28 +87,49 @@ def _given_subgoals(body: SessionCreate) -> str | list[object] | None:
     return [item.model_dump() if isinstance(item, SubgoalIn) else item for item in body.subgoals]
 
 
-def _history_subgoals(history: History | None, camera: Camera, ontology: Ontology) -> list[Subgoal]:
-    """EDH history actions as subgoals (DESIGN.md §5); object ids must name known types and the frames
-    must fit the camera."""
+def _history_subgoals(history: History | None, ontology: Ontology) -> list[Subgoal]:
+    """EDH history actions as subgoals (DESIGN.md §5); object ids must name known types."""
     if history is None:
         return []
     for index, action in enumerate(history.actions):
         if action.oid:
             with planning_errors_as_api_errors(f"history.actions[{index}].oid"):
                 ontology.get(object_type_of_id(action.oid))
-    if history.images is not None:
-        if len(history.images) != len(history.actions):
+    with planning_errors_as_api_errors("history.actions"):
+        return subgoals_from_teach_actions([action.model_dump() for action in history.actions])
+
+
+def history_steps(history: History | None, camera: Camera, ontology: Ontology) -> list[HistoryStep]:
+    """The history's actions with their decoded frames (one per action when frames are sent); the frame
+    lists must match the actions one to one and every frame must fit the camera."""
+    if history is None:
+        return []
+    frames = {"images": history.images, "depth": history.depth, "segmentation": history.segmentation}
+    for name, frame_list in frames.items():
+        if frame_list is not None and len(frame_list) != len(history.actions):
             raise ApiError(
                 422,
                 HISTORY_MISMATCH,
-                f"history.images has {len(history.images)} frames but history.actions has "
+                f"history.{name} has {len(frame_list)} frames but history.actions has "
                 f"{len(history.actions)} entries; send one frame per action (the view before it)",
             )
-        for index, image in enumerate(history.images):
-            field = f"history.images[{index}]"
-            decode_rgb(field, decode_base64(field, image), camera)
-    with planning_errors_as_api_errors("history.actions"):
-        return subgoals_from_teach_actions([action.model_dump() for action in history.actions])
+    steps = []
+    for index, action in enumerate(history.actions):
+        rgb, depth, segmentation = (None if f is None else f[index] for f in frames.values())
+        observation = None
+        if rgb is not None or depth is not None or segmentation is not None:
+            observation = history_observation(
+                index,
+                camera,
+                ontology,
+                rgb=rgb,
+                depth=depth,
+                depth_encoding=history.depth_encoding,
+                segmentation=segmentation,
+                legend=history.segmentation_legend or {},
+            )
+        steps.append(HistoryStep(action.action_name, observation, action.x, action.y))
+    return steps
 
 
 def build_session(
@@ -111,7 +151,10 @@ def build_session(
             f"trained and wired in yet (it arrives with the planner issue). Available planners: "
             f"{', '.join(available_planners())}; send planner 'oracle' with 'subgoals'.",
         ) from error
-    history_subgoals = _history_subgoals(body.history, camera, ontology)
+    history_subgoals = _history_subgoals(body.history, ontology)
+    history = history_steps(body.history, camera, ontology)
+    start = body.history.start_pose if body.history is not None else None
+    backend = perception_backend(body.perception, camera)
     with planning_errors_as_api_errors("subgoals"):
         return AgentSession.start(
             session_id,
@@ -125,5 +168,12 @@ def build_session(
             dialogue=[DialogueTurn(turn.normalized_speaker(), turn.text) for turn in body.dialogue],
             history_subgoals=history_subgoals,
             given_subgoals=_given_subgoals(body),
+            perception_backend=backend,
+            history=history,
+            history_start=Pose(start.x, start.z, start.yaw, start.horizon) if start is not None else None,
+            limits=SessionLimits(
+                max_steps=settings.max_steps, max_failed_actions=settings.max_failed_actions
+            ),
+            ontology=ontology,
             now=now,
         )

@@ -4,10 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from agent.session import AgentSession
-from app.schemas import CameraSpec, DialogueTurnOut, PlanOut, RepairEventOut, SessionPublic, SubgoalOut
+from agent.session import AgentSession, StepDecision
+from app.schemas import (
+    CameraSpec,
+    DialogueTurnOut,
+    PlanOut,
+    RepairEventOut,
+    SessionPublic,
+    StepResult,
+    SubgoalOut,
+)
 from symbolic.repair import RepairEvent
-from symbolic.subgoals import Subgoal
+from symbolic.subgoals import Subgoal, format_subgoals
 
 
 def subgoal_out(subgoal: Subgoal) -> SubgoalOut:
@@ -35,6 +43,27 @@ def plan_out(session: AgentSession) -> PlanOut:
         pointer=session.pointer,
         source=session.plan_source,
         repair_log=[repair_event_out(event) for event in session.repair_log],
+    )
+
+
+def step_result(decision: StepDecision) -> StepResult:
+    """The answer to a step; built from the stored decision alone, so a retried step gets the same body."""
+    return StepResult(
+        action=decision.action,
+        x=decision.x,
+        y=decision.y,
+        subgoal=str(decision.subgoal) if decision.subgoal is not None else None,
+        plan=PlanOut(
+            subgoals=_subgoals_out(decision.plan),
+            text=format_subgoals(decision.plan),
+            pointer=decision.pointer,
+            source=decision.plan_source,
+            repair_log=[repair_event_out(event) for event in decision.repair_log],
+        ),
+        utterance=decision.utterance,
+        done=decision.done,
+        step=decision.step,
+        reason=decision.reason,
     )
 
 

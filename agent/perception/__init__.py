@@ -17,10 +17,19 @@ from agent.perception.base import (
     PerceptionFactory,
     confident_depth,
 )
+from agent.perception.learned import LearnedPerception, learned_depth_only, learned_segmentation_only
 from agent.perception.oracle import OraclePerception
 
-PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType({"oracle": OraclePerception})
-"""Name -> factory; the session's ``perception`` field picks one."""
+PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType(
+    {
+        "oracle": OraclePerception,
+        "learned": LearnedPerception,
+        "learned_depth": learned_depth_only,
+        "learned_segmentation": learned_segmentation_only,
+    }
+)
+"""Name -> factory; the session's ``perception`` field picks one. ``learned_depth`` and
+``learned_segmentation`` are the JARVIS seed's ablations (one half learned, the other from the caller)."""
 
 
 def make_perception(name: str, camera: Camera) -> Perception:
@@ -33,6 +42,7 @@ def make_perception(name: str, camera: Camera) -> Perception:
 
 __all__ = [
     "PERCEPTION_BACKENDS",
+    "LearnedPerception",
     "Observation",
     "ObservationError",
     "OraclePerception",

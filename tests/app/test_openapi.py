@@ -30,6 +30,8 @@ def test_every_route_documents_its_errors_with_the_error_body(client: TestClient
         ("/v1/sessions/{session_id}", "delete"),
         ("/v1/sessions/{session_id}/utterances", "post"),
         ("/v1/sessions/{session_id}/step", "post"),
+        ("/v1/sessions/{session_id}/trace", "get"),
+        ("/v1/sessions/{session_id}/map.png", "get"),
         ("/healthz", "get"),
         ("/readyz", "get"),
     }

@@ -5,8 +5,9 @@ from __future__ import annotations
 import logging
 import uuid
 from datetime import UTC, datetime
+from typing import Annotated
 
-from fastapi import APIRouter, Response
+from fastapi import APIRouter, Query, Response
 
 from app.api.deps import OntologyDep, SessionDep, SettingsDep, StoreDep, session_not_found
 from app.api.responses import error_responses
@@ -18,6 +19,7 @@ from app.store import SessionNotFound, StoreFull
 from app.views import session_public
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
+TRACE_MEDIA_TYPE = "application/x-ndjson"
 _LOG = logging.getLogger("app.sessions")
 
 
@@ -105,3 +107,45 @@ def add_utterance(body: UtteranceCreate, handle: SessionDep, settings: SettingsD
                 "re-plan from dialogue"
             )
         return UtteranceResult(session=session_public(session), replanned=replanned, note=note)
+
+
+@router.get(
+    "/{session_id}/trace",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "One JSON object per step (ndjson): inputs, success verdict, pose, map "
+            "statistics, subgoal, action and the predicate or rule that chose it, server timings.",
+            "content": {TRACE_MEDIA_TYPE: {"schema": {"type": "string"}}},
+        },
+        **error_responses(404, 409, 422, 503),
+    },
+    summary="Read the step trace as ndjson (one line per step)",
+)
+def read_trace(
+    handle: SessionDep,
+    since: Annotated[int | None, Query(ge=0, description="Only steps from this index on.")] = None,
+) -> Response:
+    with handle.hold() as session:
+        lines = list(session.trace.lines(since))
+    body = "".join(f"{line}\n" for line in lines)
+    return Response(content=body, media_type=TRACE_MEDIA_TYPE)
+
+
+@router.get(
+    "/{session_id}/map.png",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "The semantic map from above: free floor, obstacles, unexplored space, each "
+            "object class in its colour, the agent, its planned path, the current target, and a legend.",
+            "content": {"image/png": {"schema": {"type": "string", "format": "binary"}}},
+        },
+        **error_responses(404, 409, 422, 503),
+    },
+    summary="Draw the session's semantic map as a PNG",
+)
+def read_map(handle: SessionDep) -> Response:
+    with handle.hold() as session:
+        picture = session.map_png()
+    return Response(content=picture, media_type="image/png")

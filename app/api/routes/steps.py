@@ -1,43 +1,152 @@
 """``POST /v1/sessions/{id}/step``: one observation in, the next action out (DESIGN.md §3-4).
 
-The request is validated completely (images decoded and checked against the session's camera, the
-step index against the session's progress) under the session's lock. The executor that turns it into
-an action (perception, map, navigation; JARVIS Algorithm 3) arrives with the agent issue; until then a
-valid request is answered 501 and the session is not changed. A multipart form of this route (images
-as file parts) will feed the same ``decode_observation`` with the parts' bytes.
+The body is a ``StepRequest`` as JSON (images base64) or as multipart/form-data with the same field names
+(images as file parts, ``pose`` and ``segmentation_legend`` as JSON text). Under the session's lock: a
+``step`` equal to the last answered step returns that answer again unchanged (a lost response can be
+retried safely); any other mismatch is 409. The observation is decoded and checked completely, and
+perception runs, before the session changes, so a refused step leaves it exactly as it was.
 """
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+import json
+import time
+from collections.abc import Callable, Coroutine
+from typing import Any
 
+from fastapi import APIRouter, Request, Response
+from fastapi.routing import APIRoute
+from starlette.datastructures import UploadFile
+
+from agent.perception import ObservationError
 from app.api.deps import OntologyDep, SessionDep
 from app.api.responses import error_responses
-from app.errors import NOT_IMPLEMENTED, STEP_OUT_OF_ORDER, ApiError
-from app.observation import decode_observation
+from app.errors import STEP_OUT_OF_ORDER, VALIDATION_ERROR, ApiError
+from app.observation import observation_error, observation_from_request
 from app.schemas import StepRequest, StepResult
+from app.views import step_result
 
-router = APIRouter(prefix="/v1/sessions", tags=["steps"])
+IMAGE_FIELDS: tuple[str, ...] = ("rgb", "depth", "depth_uncertainty", "segmentation")
+"""StepRequest fields that may arrive as multipart file parts."""
+JSON_TEXT_FIELDS: frozenset[str] = frozenset({"pose", "segmentation_legend", "last_action_success", "step"})
+"""Multipart text fields that carry JSON (objects, booleans, integers) rather than plain text."""
+PROCESS_TIME_HEADER = "X-Process-Time-Ms"
+"""Server-side milliseconds spent on the step, from the parsed request to the answer."""
+
+_MULTIPART_DOC: dict[str, Any] = {
+    "requestBody": {
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "description": "The StepRequest fields as form fields; images may be file parts "
+                    "(raw PNG/JPEG, 16-bit PNG or float32 bytes), pose and segmentation_legend JSON text.",
+                    "properties": {
+                        **{name: {"type": "string", "format": "binary"} for name in IMAGE_FIELDS},
+                        "depth_encoding": {"type": "string", "enum": ["png16_mm", "float32_m"]},
+                        "segmentation_legend": {"type": "string", "description": 'JSON {"7": "Knife"}'},
+                        "pose": {"type": "string", "description": "JSON Pose"},
+                        "last_action_success": {"type": "string", "enum": ["true", "false"]},
+                        "step": {"type": "integer"},
+                        "held_object": {"type": "string"},
+                    },
+                }
+            }
+        }
+    }
+}
+
+
+class JsonOrFormRoute(APIRoute):
+    """A route whose JSON body may also come as multipart/form-data.
+
+    The form's text fields become the JSON body FastAPI validates as usual (so errors look the same);
+    its file parts are kept as bytes in ``request.state.step_parts`` and decoded without base64.
+    """
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        handle_json = super().get_route_handler()
+
+        async def handle(request: Request) -> Response:
+            if request.headers.get("content-type", "").startswith("multipart/form-data"):
+                request = await _form_as_json(request)
+            return await handle_json(request)
+
+        return handle
+
+
+async def _form_as_json(request: Request) -> Request:
+    """The same request with its form's text fields as a JSON body and its file parts in the state."""
+    fields: dict[str, Any] = {}
+    parts: dict[str, bytes] = {}
+    async with request.form() as form:
+        for name, value in form.multi_items():
+            if isinstance(value, UploadFile):
+                parts[name] = await value.read()
+            elif name in JSON_TEXT_FIELDS:
+                try:
+                    fields[name] = json.loads(value)
+                except json.JSONDecodeError:
+                    fields[name] = value  # validation names the field and the bad text
+            else:
+                fields[name] = value
+    body = json.dumps(fields).encode()
+    headers = [(k, v) for k, v in request.scope["headers"] if k not in (b"content-type", b"content-length")]
+    headers += [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
+    scope = {**request.scope, "headers": headers}
+    scope.setdefault("state", {})["step_parts"] = parts
+    sent = False
+
+    async def receive() -> dict[str, Any]:
+        nonlocal sent
+        if sent:
+            return {"type": "http.disconnect"}
+        sent = True
+        return {"type": "http.request", "body": body, "more_body": False}
+
+    return Request(scope, receive)
+
+
+router = APIRouter(prefix="/v1/sessions", tags=["steps"], route_class=JsonOrFormRoute)
 
 
 @router.post(
     "/{session_id}/step",
     response_model=StepResult,
-    responses=error_responses(400, 404, 409, 413, 422, 501, 503),
-    summary="Send one observation and receive the next action",
+    responses=error_responses(400, 404, 409, 413, 422, 503),
+    summary="Send one observation (JSON or multipart) and receive the next action",
+    openapi_extra=_MULTIPART_DOC,
 )
-def step(body: StepRequest, handle: SessionDep, ontology: OntologyDep) -> StepResult:
-    with handle.hold() as session:
-        if body.step is not None and body.step != session.step:
-            raise ApiError(
-                409,
-                STEP_OUT_OF_ORDER,
-                f"step {body.step} was sent but session {session.session_id!r} expects step {session.step}",
-            )
-        decode_observation(body, session.camera, session.perception, ontology)
+def step(
+    body: StepRequest, request: Request, response: Response, handle: SessionDep, ontology: OntologyDep
+) -> StepResult:
+    started = time.perf_counter()
+    parts: dict[str, bytes] = getattr(request.state, "step_parts", {})
+    unknown = set(parts) - set(IMAGE_FIELDS)
+    if unknown:
         raise ApiError(
-            501,
-            NOT_IMPLEMENTED,
-            "the observation is valid, but the executor (perception -> map -> navigation -> action, "
-            "DESIGN.md §3) arrives with the agent issue; the session was not changed",
+            422,
+            VALIDATION_ERROR,
+            f"{', '.join(sorted(unknown))}: only {', '.join(IMAGE_FIELDS)} may be file parts",
         )
+    with handle.hold() as session:
+        last = session.last_decision
+        if body.step is not None and last is not None and body.step == last.step:
+            answer = step_result(last)  # a retry of the last answered step: same answer, nothing changes
+        else:
+            if body.step is not None and body.step != session.step:
+                again = f" (or {last.step} again, to repeat the last answer)" if last is not None else ""
+                raise ApiError(
+                    409,
+                    STEP_OUT_OF_ORDER,
+                    f"step {body.step} was sent but session {session.session_id!r} expects step "
+                    f"{session.step}{again}",
+                )
+            observation = observation_from_request(body, session.camera, session.perception, ontology, parts)
+            try:
+                decision = session.step_once(observation)
+            except ObservationError as error:
+                raise observation_error(error) from error
+            answer = step_result(decision)
+    response.headers[PROCESS_TIME_HEADER] = f"{(time.perf_counter() - started) * 1e3:.3f}"
+    return answer

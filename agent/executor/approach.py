@@ -1,0 +1,236 @@
+"""Getting to where the target can be acted on: JARVIS's FindInMap -> FMM -> Near, and what to do when it
+is not seen there (FindTargetNearDestination, Ignore).
+
+Target(X) (X mapped and the navigator finds a way) -> walk to the cells from which X is within reach and in
+view (``interaction_goal_cells``, with a line-of-sight check so an open fridge door cannot hide what is
+inside), face it, pitch the camera to its height. Not seeing X there: other pitches, then other standing
+cells ("delta moves around the destination", Alg. 3 line 75); after several rounds Ignore(X): the mapped X
+is a false detection (Table 5). Not mapped at all: search.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from agent.executor.choice import InstanceChoice
+from agent.executor.mapview import IgnoredSpot, MapCluster
+from agent.executor.state import Attempt
+from agent.executor.step import Act, Outcome
+from agent.mapping import GridFrame
+from agent.navigation.base import NavGoal, body_fits
+from agent.navigation.goals import interaction_goal_cells
+from symbolic.thor import INTERACTION_DISTANCE_M
+
+
+class Approach(InstanceChoice):
+    """Walking to a mapped target and bringing it into view (module docstring)."""
+
+    def _approach(self, obj: str, attempt: Attempt) -> Outcome:
+        """FindInMap(X) -> walk to where X can be reached; otherwise search for it. The X the agent put
+        down itself is looked for where it was put, even when the map does not show it (inside a toaster)."""
+        clusters = self._clusters(obj, attempt)
+        where = self.state.memory.where.get(obj)
+        source = self.state.memory.source.get(obj)
+        if self._remembered(obj, attempt) is not None and where is not None:
+            clusters = [self.view.spot_cluster(where, self.cfg.part_radius_m / 2)]
+        elif (
+            source is not None
+            and not attempt.tried_source
+            and all(self._rank(obj, c, 0.0)[0] for c in clusters)
+        ):
+            # every known X is one the plan is done with: the rest of the pieces may hide where they came
+            # from (thin slices stacked behind the first one)
+            clusters = [self.view.spot_cluster(source, self.cfg.part_radius_m / 2), *clusters]
+        for cluster in clusters:
+            front = self._front_cells(cluster) if obj in self.onto.enclosing else None
+            goal = self._goal_cells(cluster, attempt, obj, front)
+            face = cluster.cells
+            if front is not None:  # face its middle, so its inside fills the view once open
+                face = self.view.spot_cluster((cluster.x, cluster.aim_m, cluster.z), 0.1).cells
+            if goal.any():
+                nav = self.navigator.next_action(
+                    self.view.grids(), self.view.map.frame, self.pose, NavGoal(goal, face=face)
+                )
+                if nav.action is not None:
+                    attempt.look_sweep.clear()
+                    attempt.destination_looks = 0
+                    if nav.reason == "face_target":
+                        reason = f"Near({obj}): turn to face it"
+                    else:
+                        # Target(X) = Observe ∧ Move: X is mapped and the navigator found a way to it
+                        reason = f"Target({obj}) ∧ ¬Near({obj}): {nav.reason}, {nav.distance_m:.2f} m to go"
+                    return Act(nav.action, reason, path=nav.path)
+                if nav.reason == "arrived":
+                    return self._at_destination(obj, cluster, attempt)
+                if nav.reason == "unreachable":
+                    unstick = self._unstick(attempt)
+                    if unstick is not None:
+                        return unstick
+            attempt.unreachable.append((cluster.x, cluster.z))
+            self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
+        return self._search(obj, attempt)
+
+    def _sides(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
+        """The four sides of a piece of furniture (90° sectors around its centre), most open floor first:
+        (standable known cells 0.4-1.6 m from its centre, bool [X, Z] cells within
+        ``front_half_angle_deg`` of that side's direction and as far, the direction in degrees)."""
+        view = self.view
+        frame = view.map.frame
+        X, Z = view.map.shape
+        ci, cj = frame.world_to_cell(body.x, body.z)
+        r = math.ceil(1.6 / frame.cell_m) + 1
+        i0, i1, j0, j1 = max(ci - r, 0), min(ci + r + 1, X), max(cj - r, 0), min(cj + r + 1, Z)
+        window = (slice(i0, i1), slice(j0, j1))
+        xs = frame.origin_x + (np.arange(i0, i1) + 0.5) * frame.cell_m  # [Xw]
+        zs = frame.origin_z + (np.arange(j0, j1) + 0.5) * frame.cell_m  # [Zw]
+        dx, dz = xs[:, None] - body.x, zs[None, :] - body.z  # [Xw, Zw] each
+        distance = np.hypot(dx, dz)
+        floor = view.standable()[window] & (view.map.explored() | view.map.visited())[window]
+        ring = floor & (distance >= 0.4) & (distance <= 1.6)
+        bearing = np.degrees(np.arctan2(dx, dz))  # [Xw, Zw]: 0 toward +z, 90 toward +x
+        sides = []
+        for centre in (0.0, 90.0, 180.0, -90.0):
+            off = np.abs((bearing - centre + 180.0) % 360.0 - 180.0)
+            cells = np.zeros((X, Z), dtype=bool)
+            cells[window] = (off <= self.cfg.front_half_angle_deg) & (distance <= 1.6)
+            sides.append((int((ring & (off <= 45.0)).sum()), cells, centre))
+        return sorted(sides, key=lambda side: -side[0])
+
+    def _front_cells(self, body: MapCluster) -> np.ndarray | None:
+        """bool [X, Z]: cells on the side of a container that faces the room, or None when no side stands out.
+
+        A fridge or cabinet opens toward open floor: the side with clearly the most floor (``_sides``) is
+        its front, and its inside shows from there rather than past a swung door from the side.
+        """
+        sides = self._sides(body)
+        (best, cells, _), (second, _, _) = sides[0], sides[1]
+        if best < self.cfg.front_min_cells or best < self.cfg.front_margin * second:
+            return None
+        return cells
+
+    def _goal_cells(
+        self, cluster: MapCluster, attempt: Attempt, obj: str | None = None, front: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Cells from which the cluster is within reach and in view (``interaction_goal_cells``), with a
+        clear line of sight to a small target (an open fridge door must not hide the bread inside):
+        known floor first, any floor else; clear sight preferred, not required.
+
+        Computed on a window around the cluster (reach plus the body's radius): the distance transforms
+        then cost a fraction of the whole map's.
+        """
+        view = self.view
+        semantic_map = view.map
+        frame = semantic_map.frame
+        if max(np.ptp(cluster.xs), np.ptp(cluster.zs)) > self.cfg.near_part_m:  # a long counter: its near end
+            near = cluster.around(self.pose.x, self.pose.z, cluster.nearest_m + self.cfg.near_part_m)
+            cluster = near if near is not None else cluster
+        margin = math.ceil((INTERACTION_DISTANCE_M + self.cfg.stand_clearance_m) / frame.cell_m) + 2
+        X, Z = semantic_map.shape
+        i0, i1 = max(int(cluster.ii.min()) - margin, 0), min(int(cluster.ii.max()) + margin + 1, X)
+        j0, j1 = max(int(cluster.jj.min()) - margin, 0), min(int(cluster.jj.max()) + margin + 1, Z)
+        window = (slice(i0, i1), slice(j0, j1))
+        blocked = semantic_map.obstacles()[window] | semantic_map.collisions()[window]
+        standable = body_fits(blocked, frame.cell_m, self.cfg.stand_clearance_m)  # [Xw, Zw]
+        known = (semantic_map.explored() | semantic_map.visited())[window]
+        sub_frame = GridFrame(
+            frame.origin_x + i0 * frame.cell_m,
+            frame.origin_z + j0 * frame.cell_m,
+            frame.cell_m,
+            (i1 - i0, j1 - j0),
+        )
+        excluded = self._near_bad_stands(attempt, sub_frame)
+        local = np.zeros_like(standable)
+        # the lowest its top may be first (reach to spare), then the highest (a plate on a low table by a
+        # wall can only be reached that way); known floor before any floor
+        tries = [(h, f) for h in (cluster.top_low_m, cluster.top_m) for f in (standable & known, standable)]
+        for height, floor in tries:
+            local = interaction_goal_cells(
+                cluster.cells[window], floor, sub_frame, target_height_m=height, hfov_deg=view.camera.hfov_deg
+            )
+            local &= ~excluded
+            if local.any():
+                break
+        goal = np.zeros((X, Z), dtype=bool)
+        goal[window] = local
+        if front is not None and (goal & front).any():
+            goal &= front  # a container: from where its inside shows
+        small = max(np.ptp(cluster.xs), np.ptp(cluster.zs)) <= self.cfg.sight_check_extent_m
+        if obj is not None and small and local.any():
+            seen = view.in_sight(goal, (cluster.x, cluster.aim_m, cluster.z), obj)
+            if seen.any():
+                return seen
+        return goal
+
+    def _near_bad_stands(self, attempt: Attempt, frame: GridFrame) -> np.ndarray:
+        """bool [X, Z] of ``frame``: cells near standing spots given up on this subgoal."""
+        excluded = np.zeros(frame.shape, dtype=bool)
+        if not attempt.bad_stands:
+            return excluded
+        X, Z = frame.shape
+        xs = frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m
+        zs = frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m
+        r2 = self.cfg.bad_stand_radius_m**2
+        for x, z in attempt.bad_stands:
+            excluded |= (xs[:, None] - x) ** 2 + (zs[None, :] - z) ** 2 <= r2
+        return excluded
+
+    def _horizon_for(self, cluster: MapCluster) -> float:
+        """The look-step horizon that best centres the target's upper part (degrees, down positive)."""
+        distance = max(math.hypot(cluster.x - self.pose.x, cluster.z - self.pose.z), 0.1)
+        aim = cluster.aim_m
+        angle = math.degrees(math.atan2(self.view.camera.height_m - aim, distance))
+        options = self._horizons()
+        return min(options, key=lambda h: abs(h - angle))
+
+    def _at_destination(self, obj: str, cluster: MapCluster, attempt: Attempt) -> Outcome:
+        """Standing where X should be reachable, facing it, yet X is not clickable: pitch the camera toward
+        it; then FindTargetNearDestination (another standing cell); then Ignore(X) (Alg. 3 l. 75)."""
+        if self.view.visible(obj) and not attempt.look_sweep:
+            attempt.bad_stands.append((self.pose.x, self.pose.z))
+            self.events.append(f"Observe({obj}) but not within reach from here; stepping closer")
+            return self._approach(obj, attempt)
+        if not attempt.look_sweep and attempt.destination_looks == 0:
+            want = self._horizon_for(cluster)
+            options = sorted(self._horizons(), key=lambda h: (abs(h - want), h))
+            attempt.look_sweep = options[: self.cfg.look_sweep]
+        while attempt.look_sweep:
+            horizon = attempt.look_sweep[0]
+            if abs(self.pose.horizon - horizon) < 1e-3:
+                attempt.look_sweep.pop(0)
+                attempt.destination_looks += 1
+                continue
+            direction = "down" if horizon > self.pose.horizon else "up"
+            return Act(
+                self._look_toward(horizon), f"Observe({obj}): look {direction} toward it ({horizon:g}°)"
+            )
+        attempt.destination_looks = 0
+        source = self.state.memory.source.get(obj)
+        if (
+            source is not None
+            and not attempt.tried_source
+            and math.hypot(cluster.x - source[0], cluster.z - source[2]) < 0.05
+        ):
+            attempt.tried_source = True
+            self.events.append(f"no other {obj} where the pieces came from")
+            return self._approach(obj, attempt)
+        if self._remembered(obj, attempt) is not None:
+            attempt.any_instance = True
+            self.events.append(f"the {obj} put down here is not in sight; taking any {obj}")
+            return self._approach(obj, attempt)
+        count = self.state.explore_attempts.get(obj, 0) + 1
+        self.state.explore_attempts[obj] = count
+        if count >= self.cfg.ignore_after:
+            where = f"({cluster.x:.2f}, {cluster.z:.2f})"
+            reason = f"Ignore({obj}): not observed after {count} look-arounds near {where}"
+            self.state.ignored.append(
+                IgnoredSpot(obj, cluster.x, cluster.z, self.cfg.ignore_radius_m, reason, subgoal_index=None)
+            )
+            self.state.explore_attempts[obj] = 0
+            self.events.append(reason)
+            self.view.forget(obj)
+        else:
+            attempt.bad_stands.append((self.pose.x, self.pose.z))
+            self.events.append(f"FindTargetNearDestination({obj}): not seen from here; moving around")
+        return self._approach(obj, attempt)

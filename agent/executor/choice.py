@@ -1,0 +1,195 @@
+"""Which instance a type-level subgoal means: "Pickup Mug" when the kitchen holds three mugs.
+
+Plans name types (JARVIS's subgoals, TEACh's history_subgoals). The instance is chosen as a person would:
+the one the agent last dealt with (it opened this cabinet, put this slice in the toaster: ``Memory.where``,
+and for what it put down itself the stable segmentation id), never one the plan has finished with (after
+"Place Bowl", the next "Pickup LettuceSliced" means another slice), one that looks clean or dirty as the
+plan needs (``looks``), and otherwise the nearest.
+"""
+
+from __future__ import annotations
+
+import math
+
+from agent.executor.clicks import VisibleInstance
+from agent.executor.looks import Looks, looks, stained_share
+from agent.executor.mapview import MapCluster
+from agent.executor.state import Attempt
+from agent.executor.step import StepContext
+from symbolic.predicates import SPREAD_OUT_RECEPTACLES
+from symbolic.subgoals import Subgoal, SubgoalAction
+
+A = SubgoalAction
+
+WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "Bathtub"})
+"""Where a plan puts a dish down to wash it under the running tap."""
+
+
+class InstanceChoice(StepContext):
+    """The ranking of visible and mapped instances of the subgoal's type (module docstring)."""
+
+    def _just_put_down(self, obj: str) -> bool:
+        """Whether the plan's last interaction put an ``obj`` down (only Navigates since): taking up the same
+        type again then means another one; a processing step in between (a toaster switched on) means
+        the same one comes back out."""
+        if obj not in self.state.belief.placed:
+            return False
+        for index in range(self.pointer - 1, -1, -1):
+            if self.plan[index].action is not A.NAVIGATE:
+                return self.plan[index].action is A.PLACE
+        return False
+
+    def _anchor(self, obj: str) -> tuple[float, float] | None:
+        """Where the instance this subgoal means should be: where the agent last dealt with it (or with
+        what it controls, or with the receptacle it is believed in). Spread-out furniture has none: any
+        part of a counter will do."""
+        if obj in SPREAD_OUT_RECEPTACLES:
+            return None
+        where = self.state.memory.where
+        related = [obj, *self.onto.controls.get(obj, ())]
+        inside = self.state.belief.inside.get(obj)
+        if inside is not None:
+            related.append(inside)
+        for name in related:
+            if name in where:
+                x, _, z = where[name]
+                return x, z
+        return None
+
+    def _finished(self, obj: str, x: float, z: float) -> bool:
+        spots = self.state.memory.done_with.get(obj, [])
+        return any(math.hypot(x - sx, z - sz) <= self.cfg.done_radius_m for sx, sz in spots)
+
+    def _rank(
+        self, obj: str, where: VisibleInstance | MapCluster, distance: float
+    ) -> tuple[bool, float, float]:
+        """Sort key: finished instances last; then, without an anchor, how well it looks what the plan
+        needs (clean or dirty, ``looks``) and its distance from the agent; with one, nearness to it."""
+        if isinstance(where, VisibleInstance):
+            x, z = where.point[0], where.point[2]
+        else:
+            x, z = where.x, where.z
+        anchor = self._anchor(obj)
+        if anchor is None:
+            return self._finished(obj, x, z), self._look_mismatch(obj, x, z), distance
+        if isinstance(where, MapCluster):
+            closeness = where.distance_to(*anchor)
+        else:
+            closeness = math.hypot(x - anchor[0], z - anchor[1])
+        return self._finished(obj, x, z), 0.0, closeness
+
+    def _wanted_look(self, obj: str) -> Looks | None:
+        """ "dirty" when the plan takes X up to wash it (its next Place is into a sink), "clean" when it
+        takes X up for anything else or puts something into X (a plate to serve on); None for types that
+        never get dirty or no Pickup of, or Place into, X ahead."""
+        if not self.onto.get(obj).dirtyable:
+            return None
+        index = self.pointer
+        if index < len(self.plan) and self.plan[index] == Subgoal(A.NAVIGATE, obj):
+            index += 1
+        if index < len(self.plan) and self.plan[index] == Subgoal(A.PLACE, obj):
+            return "clean"
+        if index >= len(self.plan) or self.plan[index] != Subgoal(A.PICKUP, obj):
+            return None
+        for later in self.plan[index + 1 :]:
+            if later.action is A.PICKUP:
+                break
+            if later.action is A.PLACE:
+                return "dirty" if later.obj in WASH_BASINS else "clean"
+        return "clean"
+
+    def _look_mismatch(self, obj: str, x: float, z: float) -> float:
+        """0 when the instance looks as the plan needs, 1 when it looks the opposite, 0.5 when unknown."""
+        wanted = self._wanted_look(obj)
+        if wanted is None:
+            return 0.0
+        seen = self._looks_at(obj, x, z)
+        if seen == "unknown":
+            return 0.5
+        return 0.0 if seen == wanted else 1.0
+
+    def _looks_at(self, obj: str, x: float, z: float) -> Looks:
+        """What the stain cue last said about the instance of ``obj`` at (x, z)."""
+        records = self.state.memory.looks.get(obj, [])
+        near = [(math.hypot(x - rx, z - rz), verdict) for rx, rz, verdict in records]
+        near = [item for item in near if item[0] <= self.cfg.done_radius_m]
+        return min(near)[1] if near else "unknown"
+
+    def _note_looks(self, obj: str) -> None:
+        """Remember how the visible instances of a dirtyable type look (stain cue, ``looks``)."""
+        rgb = self.inputs.observation.rgb
+        if rgb is None or not self.onto.get(obj).dirtyable:
+            return
+        fresh: list[tuple[float, float, Looks]] = []
+        for v in self.view.visible(obj):
+            share = stained_share(rgb, self.view.percept.instances == v.instance_id, self.cfg.stain)
+            verdict = looks(share, self.cfg.stain)
+            if verdict != "unknown":
+                fresh.append((v.point[0], v.point[2], verdict))
+        if not fresh:
+            return
+        records = self.state.memory.looks.setdefault(obj, [])
+        radius = self.cfg.done_radius_m
+        kept = [r for r in records if all(math.hypot(r[0] - x, r[1] - z) > radius for x, z, _ in fresh)]
+        records[:] = kept + fresh  # what this view says replaces what earlier views said about the same spot
+
+    def _chosen_visible(self, obj: str, attempt: Attempt) -> VisibleInstance | None:
+        """The clickable instance to act on, if the best known instance is one of them.
+
+        Without an anchor, the nearest clickable instance that looks as the plan needs; with one, the
+        instance nearest the anchor. When a mapped instance elsewhere ranks better, the agent walks
+        there instead (None).
+        """
+        self._note_looks(obj)
+        candidates = [
+            v
+            for v in self.view.clickable(obj)
+            if attempt.instance_failures(v.instance_id) < self.cfg.retries_per_instance
+        ]
+        remembered = self._remembered(obj, attempt)
+        if remembered is not None:
+            return next((v for v in candidates if v.instance_id == remembered), None)
+        if not candidates:
+            return None
+        opened = self.state.memory.instance.get(obj) if obj in self.onto.enclosing else None
+        same = [v for v in candidates if v.instance_id == opened]
+        if same:
+            return same[0]  # the cabinet it opened, for "Place Cabinet" and "Close Cabinet"
+        ranked = sorted(candidates, key=lambda v: self._rank(obj, v, v.nearest_m))
+        best = ranked[0]
+        best_key = self._rank(obj, best, best.nearest_m)
+        if best_key[0]:  # only instances the plan is done with are at hand
+            elsewhere = any(not self._rank(obj, c, c.nearest_m)[0] for c in self._clusters(obj, attempt))
+            hidden = obj in self.state.memory.source and not attempt.tried_source
+            if elsewhere or hidden:
+                return None  # another is mapped elsewhere, or may hide where the pieces came from
+        anchored = self._anchor(obj) is not None
+        for cluster in self._clusters(obj, attempt):
+            key = self._rank(obj, cluster, cluster.nearest_m)
+            apart = math.hypot(cluster.x - best.point[0], cluster.z - best.point[2])
+            if key >= best_key:
+                continue
+            if anchored and apart > 0.5 and key[2] + self.cfg.anchor_radius_m < best_key[2]:
+                return None  # a mapped instance nearer the anchor is the one meant: go there
+            if not anchored and apart > self.cfg.done_radius_m / 2 and key[:2] < best_key[:2]:
+                return None  # a mapped instance that looks as the plan needs (clean, dirty): go there
+        return best
+
+    def _remembered(self, obj: str, attempt: Attempt) -> int | None:
+        """The instance the plan means, when the agent itself put an X down and the plan has not moved on
+        to another X since (``BeliefState.placed``); None once it could not be found there."""
+        if attempt.any_instance or obj not in self.state.belief.placed:
+            return None
+        return self.state.memory.instance.get(obj)
+
+    def _clusters(self, obj: str, attempt: Attempt) -> list[MapCluster]:
+        """Mapped instances of ``obj`` not found unreachable this subgoal, in order of preference; with an
+        anchor, a cluster holding it is cut down to the part around it (one cabinet of a row)."""
+        anchor = self._anchor(obj)
+        clusters = []
+        for cluster in self.view.clusters(obj):
+            if anchor is not None and cluster.distance_to(*anchor) <= self.cfg.anchor_radius_m:
+                cluster = cluster.around(anchor[0], anchor[1], self.cfg.part_radius_m) or cluster
+            if not any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
+                clusters.append(cluster)
+        return sorted(clusters, key=lambda c: self._rank(obj, c, c.nearest_m))

@@ -1,0 +1,200 @@
+"""Where to click: the target's visible instances in this frame, and an interior pixel of the chosen one.
+
+TEACh resolves a click through the instance segmentation at ``(round(y·H), round(x·W))`` and, when that
+pixel's object lacks the action's affordance, searches a 10 px (of 900) square around it
+(``SimulatorTHOR.__get_oid_at_frame_xy_with_affordance``); the simulator then measures the distance to the
+surface seen at that pixel against AI2-THOR's 1.5 m. A click near the mask's centroid but well inside the
+mask (distance transform) lands on the object even when the mask is thin or concave, and a pixel whose own
+surface lies within reach passes the distance check. For Place on a large receptacle the click goes on its
+visible upper surface, where AI2-THOR (and our harness) look for a free spot near the click.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from agent.geometry import Camera, Pose, camera_position, camera_to_world, pixel_ray_lengths, pixel_ray_slopes
+
+ClickPurpose = Literal["object", "surface"]
+"""``object``: any interior pixel (Pickup, Open, Toggle, Slice, Pour); ``surface``: a receptacle's top."""
+
+
+@dataclass(frozen=True)
+class ClickConfig:
+    """How visible pixels become candidates and how one is chosen."""
+
+    reach_m: float = 1.4  # metres from the camera: AI2-THOR's 1.5 m visibilityDistance less a 0.1 m margin
+    # for depth quantisation and for TEACh's neighbourhood search landing on a farther pixel
+    min_pixels: int = 4  # reachable pixels an instance needs to count as clickable (a sliver is not)
+    holding_min_distance_m: float = 0.7  # pixels nearer than this are the held object while holding
+    # (HLSM A.3; the same distance keeps it out of the map)
+    interior_fraction: float = 0.5  # candidates lie at least this share of the mask's largest inner
+    # distance from its edge ...
+    interior_cap_px: float = 6.0  # ... but need not lie farther than this (pixels at 300 px; scaled)
+    surface_band_m: float = (
+        0.06  # Place: pixels within this of the highest reachable surface point are its top
+    )
+
+
+@dataclass(frozen=True)
+class VisibleInstance:
+    """One instance of the wanted type in this frame."""
+
+    instance_id: int
+    pixels: int  # visible pixels (held-object pixels excluded)
+    reachable_pixels: int  # of them, within ``reach_m`` of the camera
+    nearest_m: float  # metres from the camera to its nearest visible pixel
+    point: tuple[float, float, float]  # world (x, y, z) centroid of its reachable (else visible) pixels
+
+    @property
+    def clickable(self) -> bool:
+        return self.reachable_pixels > 0
+
+    def distance_to(self, x: float, z: float) -> float:
+        """Horizontal metres from its centroid to a world point."""
+        return math.hypot(self.point[0] - x, self.point[2] - z)
+
+
+@dataclass(frozen=True)
+class Click:
+    """A click: the pixel, and the relative point TEACh reads (x = column / W, y = row / H)."""
+
+    row: int
+    col: int
+    x: float
+    y: float
+    instance_id: int
+    point: tuple[float, float, float]  # world point of the clicked surface
+
+
+def pixel_points(
+    rows: np.ndarray, cols: np.ndarray, depth: np.ndarray, camera: Camera, pose: Pose
+) -> np.ndarray:
+    """float64 [N, 3] world points of the pixels (rows[k], cols[k]): ``geometry.depth_to_points`` for a
+    few pixels, without back-projecting the whole image."""
+    x_over_z, y_over_z = pixel_ray_slopes(camera)
+    rays = np.stack([x_over_z[cols], y_over_z[rows], np.ones(len(rows), dtype=np.float32)], axis=1)  # [N, 3]
+    local = rays * depth[rows, cols][:, None]  # [N, 3] camera frame
+    return local @ camera_to_world(pose).T + camera_position(camera, pose)
+
+
+def pixel_distances(depth: np.ndarray, camera: Camera) -> np.ndarray:
+    """float32 [H, W]: Euclidean metres from the camera to each pixel's surface (0 = no reading)."""
+    return depth * pixel_ray_lengths(camera)
+
+
+def usable_pixels(distances: np.ndarray, holding: bool, config: ClickConfig) -> np.ndarray:
+    """bool [H, W]: pixels with a depth reading that are not the held object."""
+    usable = distances > 0
+    if holding:
+        usable &= distances >= config.holding_min_distance_m
+    return usable
+
+
+def visible_instances(
+    mask: np.ndarray,
+    instances: np.ndarray,
+    distances: np.ndarray,
+    usable: np.ndarray,
+    depth: np.ndarray,
+    camera: Camera,
+    pose: Pose,
+    config: ClickConfig,
+) -> list[VisibleInstance]:
+    """The instances covering ``mask`` (the wanted type's pixels), nearest first.
+
+    ``distances`` and ``usable`` come from ``pixel_distances`` and ``usable_pixels``; instance id 0 (an
+    unlabelled pixel of the type, as a learned segmenter may leave) counts as one instance.
+    """
+    wanted = mask & usable
+    if not wanted.any():
+        return []
+    rows, cols = np.nonzero(wanted)  # [N] each
+    ids = instances[rows, cols]  # [N]
+    dist = distances[rows, cols]  # [N]
+    found = []
+    for instance_id in np.unique(ids).tolist():
+        mine = ids == instance_id
+        near = mine & (dist <= config.reach_m)
+        pick = near if near.sum() >= config.min_pixels else mine
+        centre = pixel_points(rows[pick], cols[pick], depth, camera, pose).mean(axis=0)
+        reachable = int(near.sum())
+        found.append(
+            VisibleInstance(
+                instance_id=int(instance_id),
+                pixels=int(mine.sum()),
+                reachable_pixels=reachable if reachable >= config.min_pixels else 0,
+                nearest_m=float(dist[mine].min()),
+                point=(float(centre[0]), float(centre[1]), float(centre[2])),
+            )
+        )
+    return sorted(found, key=lambda v: (not v.clickable, v.nearest_m))
+
+
+def interior_pixel(mask: np.ndarray, config: ClickConfig, scale: float = 1.0) -> tuple[int, int] | None:
+    """(row, col) of a pixel well inside ``mask`` and nearest its centroid, or None for an empty mask.
+
+    Candidates are the pixels at least min(interior_fraction · r_max, interior_cap_px · scale) from the
+    mask's edge (r_max: its largest inner distance); of those, the one nearest the centroid of the mask.
+    """
+    if not mask.any():
+        return None
+    inner = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, 3)  # [H, W] pixels to the edge
+    r_max = float(inner.max())
+    threshold = min(config.interior_fraction * r_max, config.interior_cap_px * scale)
+    rows, cols = np.nonzero(inner >= max(threshold, 1e-6))  # [N] candidates
+    all_rows, all_cols = np.nonzero(mask)
+    centre_r, centre_c = all_rows.mean(), all_cols.mean()
+    best = int(np.argmin((rows - centre_r) ** 2 + (cols - centre_c) ** 2))
+    return int(rows[best]), int(cols[best])
+
+
+def choose_click(
+    instance: VisibleInstance,
+    instances: np.ndarray,
+    distances: np.ndarray,
+    usable: np.ndarray,
+    depth: np.ndarray,
+    camera: Camera,
+    pose: Pose,
+    purpose: ClickPurpose,
+    config: ClickConfig,
+    avoid: tuple[tuple[int, int], ...] = (),
+) -> Click | None:
+    """The click on ``instance``: an interior pixel of its reachable part (its top surface for ``surface``).
+
+    ``avoid`` holds pixels of earlier failed clicks on it; the mask loses a disc around each so a retry
+    lands elsewhere. None when nothing reachable is left.
+    """
+    H, W = instances.shape
+    scale = max(H, W) / 300.0
+    region = (instances == instance.instance_id) & usable & (distances <= config.reach_m)
+    for row, col in avoid:
+        cv2.circle(region.view(np.uint8), (col, row), max(2, round(config.interior_cap_px * scale)), 0, -1)
+    if int(region.sum()) < config.min_pixels:
+        return None
+    if purpose == "surface":
+        rows, cols = np.nonzero(region)
+        heights = pixel_points(rows, cols, depth, camera, pose)[:, 1]  # [n] metres
+        top = heights >= float(heights.max()) - config.surface_band_m
+        if int(top.sum()) >= config.min_pixels:
+            region = np.zeros_like(region)
+            region[rows[top], cols[top]] = True
+    pixel = interior_pixel(region, config, scale)
+    if pixel is None:
+        return None
+    row, col = pixel
+    point = pixel_points(np.array([row]), np.array([col]), depth, camera, pose)[0]
+    return Click(
+        row=row,
+        col=col,
+        x=col / W,
+        y=row / H,
+        instance_id=instance.instance_id,
+        point=(float(point[0]), float(point[1]), float(point[2])),
+    )

@@ -1,0 +1,355 @@
+"""JARVIS's action-level executor (seed 002, Algorithm 3) with Table 5's action predicates.
+
+Each step: judge the previous action (Success; on success advance the subgoal pointer and apply its effect
+to the belief, ``ExecutePostActionProcess``), then pursue the subgoal at the pointer:
+
+- Navigate X is done when Interactive(X) holds: X observed in this frame with pixels within reach.
+- An interaction with X acts when Interactive holds, clicking an interior pixel of X's mask (``clicks``);
+  otherwise it first navigates (the plan may lack the Navigate).
+- Getting there: Target(X) (X in the map, FindInMap) -> the navigator walks to the cells from which X can
+  be reached (``interaction_goal_cells``) and faces it; on arrival the camera pitches toward X's height.
+  Not seeing X there -> FindTargetNearDestination: other pitches, then other standing cells ("delta
+  moves"); after several rounds Ignore(X): the mapped X is a false detection. X not in the map -> search
+  (``search``: look around, frontier exploration, open closed containers).
+- A failed interaction tries another pixel or instance, then another standing cell; Open, Close, Toggle
+  and Pour that change nothing twice on one instance already are in the wanted state; a subgoal that keeps
+  failing is dropped and the rest of the plan repaired from the current belief (JARVIS Algorithm 2's
+  rules; "a failed subgoal goes back to repair and planning").
+- Line 80: a failed motion is never repeated; a random feasible motion replaces it.
+- TEACh's limits (1000 steps, 30 failed actions) end the episode with Stop.
+
+HLSM (seed 000, §4.3) does the same low-level loop with its own navigation and interaction-pose sampling;
+where the two differ we take what works in AI2-THOR (reach within 1.5 m, 90° turns, 30° or 15° looks).
+This module holds the step itself; the parts it calls are mixins over ``step.StepContext``: ``choice``
+(which instance), ``approach`` (getting there), ``search`` (finding it), ``motion`` (moving safely).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from agent.executor.clicks import ClickPurpose, VisibleInstance
+from agent.executor.config import ExecutorConfig
+from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
+from agent.executor.search import ContainerSearch
+from agent.executor.state import Attempt, ExecutorState, Pending
+from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
+from agent.executor.success import instance_colour
+from agent.navigation.base import Navigator
+from symbolic.belief import BeliefState
+from symbolic.ontology import Ontology
+from symbolic.predicates import interactive
+from symbolic.repair import RepairEvent, repair_plan
+from symbolic.subgoals import ACTION_NAME_FOR_SUBGOAL, Subgoal, SubgoalAction
+from symbolic.thor import MOTION_ACTIONS, OBJECT_ACTIONS
+
+A = SubgoalAction
+
+STATE_ACTIONS: frozenset[str] = frozenset({"Open", "Close", "ToggleOn", "ToggleOff", "Pour"})
+"""Object actions that fail (changing nothing) when the object already is in the wanted state."""
+
+STOP = "Stop"
+MAX_SUBGOALS_PER_STEP = 16
+"""Navigate subgoals can finish without an action; this bounds the chain of them in one step."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The executor's answer for one step."""
+
+    action: str
+    x: float | None
+    y: float | None
+    reason: str  # the predicate or rule that chose the action
+    plan: tuple[Subgoal, ...]  # the plan after this step (changed when a failed subgoal was repaired)
+    pointer: int
+    repairs: tuple[RepairEvent, ...]  # repairs made this step
+    events: tuple[str, ...]  # what happened this step (subgoals done or given up, ignores, searches)
+    stop: bool  # the executor ends the episode (limits) or the plan is done
+    plan_done: bool  # the pointer reached the end of the plan
+    question: str | None  # what the follower would ask the commander
+    target_type: str | None  # the object the current subgoal is about
+    path: tuple[tuple[int, int], ...] = ()  # map cells of the navigator's planned path
+
+
+class Executor:
+    """Algorithm 3 for one session (module docstring); ``decide`` is called once per step."""
+
+    def __init__(
+        self,
+        ontology: Ontology,
+        navigator: Navigator,
+        belief: BeliefState,
+        rng: np.random.Generator,
+        config: ExecutorConfig | None = None,
+    ) -> None:
+        self.ontology = ontology
+        self.navigator = GuardedNavigator(navigator)
+        self.config = config or ExecutorConfig()
+        self.state = ExecutorState(belief=belief)
+        self.rng = rng
+
+    # ----- one step ----------------------------------------------------------------------------------
+    def decide(self, inputs: StepInputs, plan: Sequence[Subgoal], pointer: int) -> Decision:
+        """The next action for the plan at ``pointer`` (Algorithm 3 lines 59-82)."""
+        run = _Run(
+            ontology=self.ontology,
+            navigator=self.navigator,
+            rng=self.rng,
+            config=self.config,
+            state=self.state,
+            inputs=inputs,
+            plan=list(plan),
+            pointer=pointer,
+        )
+        return run.decide()
+
+
+class _Run(ContainerSearch, MotionSafety):
+    """One call of ``Executor.decide`` (module docstring): the step itself, on top of the mixins."""
+
+    def decide(self) -> Decision:
+        self._judge_previous()
+        limit = self._limit_reached()
+        if limit is not None:
+            return self._stop(limit)
+        for _ in range(MAX_SUBGOALS_PER_STEP):
+            if self.pointer >= len(self.plan):
+                return self._stop("plan done: every subgoal was executed", plan_done=True)
+            subgoal = self.plan[self.pointer]
+            attempt = self._attempt_for(subgoal)
+            outcome = self._pursue(subgoal, attempt)
+            if isinstance(outcome, Act):
+                return self._act(outcome, subgoal)
+            if isinstance(outcome, Done):
+                self._complete(subgoal, outcome.reason, outcome.point)
+            else:
+                self._give_up(subgoal, outcome)
+                if self.state.given_up > self.cfg.max_given_up:
+                    return self._stop(f"{self.state.given_up} subgoals given up; stopping")
+        return self._stop(f"more than {MAX_SUBGOALS_PER_STEP} subgoals ended in one step")
+
+    def _limit_reached(self) -> str | None:
+        if self.inputs.step >= self.cfg.max_steps:
+            return f"step limit: {self.cfg.max_steps} actions (TEACh)"
+        if self.state.failed_actions >= self.cfg.max_failed_actions:
+            limit = self.cfg.max_failed_actions
+            return f"failure limit: {self.state.failed_actions} failed actions (TEACh allows {limit})"
+        return None
+
+    def _stop(self, reason: str, plan_done: bool = False) -> Decision:
+        self.state.pending = None
+        subgoal = self.plan[self.pointer] if self.pointer < len(self.plan) else None
+        return self._decision(STOP, None, None, reason, stop=True, plan_done=plan_done, subgoal=subgoal)
+
+    def _act(self, outcome: Act, subgoal: Subgoal) -> Decision:
+        action, reason = outcome.action, outcome.reason
+        manoeuvre = self.state.manoeuvre
+        if manoeuvre and (action not in MOTION_ACTIONS or self.inputs.last_success is False):
+            manoeuvre.clear()  # it can act now, or the manoeuvre failed
+        if manoeuvre and action in MOTION_ACTIONS:
+            action = manoeuvre.pop(0)
+            reason = f"Collision: making room to turn with what is held: {action}"
+        elif action in OPPOSITE_TURN and self._turn_blocked(action):
+            action = self._sidestep(action)
+            if action.startswith("Pan"):  # turn where there is room, then step back in facing the way wanted
+                manoeuvre.extend([outcome.action, "Forward"])
+            reason = f"Collision: {outcome.action} would swing what is held into something; {action} first"
+        elif (
+            action in MOTION_ACTIONS
+            and self.inputs.last_success is False
+            and action == self.state.last_failed_action
+        ):
+            action = self._random_feasible_motion(exclude=action)
+            reason = (
+                f"Collision: {outcome.action} just failed; random feasible {action} instead (Alg. 3 l. 81)"
+            )
+        click = outcome.click if action == outcome.action else None
+        colour = None
+        if click is not None:
+            colour = instance_colour(self.inputs.observation, self.inputs.digest, click.instance_id)
+        self.state.pending = Pending(
+            action=action,
+            purpose=outcome.purpose if action == outcome.action else "motion",
+            plan_index=self.pointer,
+            pose=self.pose,
+            click=click,
+            colour=colour,
+        )
+        x, y = (click.x, click.y) if click is not None else (None, None)
+        return self._decision(action, x, y, reason, subgoal=subgoal, path=outcome.path)
+
+    def _decision(
+        self,
+        action: str,
+        x: float | None,
+        y: float | None,
+        reason: str,
+        *,
+        subgoal: Subgoal | None,
+        stop: bool = False,
+        plan_done: bool = False,
+        path: tuple[tuple[int, int], ...] = (),
+    ) -> Decision:
+        return Decision(
+            action=action,
+            x=x,
+            y=y,
+            reason=reason,
+            plan=tuple(self.plan),
+            pointer=self.pointer,
+            repairs=tuple(self.repairs),
+            events=tuple(self.events),
+            stop=stop,
+            plan_done=plan_done,
+            question=self.question,
+            target_type=subgoal.obj if subgoal is not None else None,
+            path=path,
+        )
+
+    def _judge_previous(self) -> None:
+        """Algorithm 3 lines 61-66: success advances the pointer and the belief, failure is remembered."""
+        pending, success = self.state.pending, self.inputs.last_success
+        self.state.pending = None
+        if pending is None:
+            return
+        if success is False:
+            self.state.failed_actions += 1
+            self.state.last_failed_action = pending.action
+            held = self.state.belief.held
+            if pending.action in OPPOSITE_TURN and held is not None:  # too long to turn with, here (AI2-THOR)
+                self.state.blocked_turns.append(turn_key(pending.pose, pending.action))
+                if held not in self.state.long_held:
+                    self.state.long_held.append(held)
+        else:
+            self.state.last_failed_action = None
+        if pending.action not in OBJECT_ACTIONS:
+            return
+        if pending.purpose == "search":
+            self._judge_search_action(pending, success is not False)
+            return
+        attempt = self.state.attempt
+        if attempt is None or pending.plan_index != self.pointer or attempt.index != self.pointer:
+            return
+        subgoal = self.plan[self.pointer]
+        click = pending.click
+        if success is not False:
+            point, instance_id = (click.point, click.instance_id) if click is not None else (None, None)
+            self._complete(subgoal, f"Success({pending.action} {subgoal.obj})", point, instance_id)
+            return
+        attempt.failures += 1
+        if click is not None:
+            attempt.failed_clicks.append((click.instance_id, click.row, click.col))
+            if pending.action in STATE_ACTIONS and attempt.instance_failures(click.instance_id) >= 2:
+                self._complete(
+                    subgoal,
+                    f"{pending.action} {subgoal.obj} changed nothing twice: already in that state",
+                    click.point,
+                )
+                return
+            if attempt.failures % self.cfg.failures_per_stand == 0:
+                attempt.bad_stands.append((pending.pose.x, pending.pose.z))
+        self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")
+
+    def _attempt_for(self, subgoal: Subgoal) -> Attempt:
+        attempt = self.state.attempt
+        if attempt is None or attempt.index != self.pointer or attempt.subgoal != subgoal:
+            attempt = Attempt(index=self.pointer, subgoal=subgoal, first_step=self.inputs.step)
+            self.state.attempt = attempt
+            memory = self.state.memory
+            obj = subgoal.obj
+            if subgoal.action is A.NAVIGATE and obj in self.state.belief.placed and obj in memory.where:
+                x, _, z = memory.where.pop(obj)
+                memory.done_with.setdefault(obj, []).append((x, z))  # a new Navigate X means another X
+                attempt.any_instance = True
+                self.events.append(f"{subgoal}: another {obj} than the one put down at ({x:.2f}, {z:.2f})")
+            if subgoal.action is A.PICKUP and self._just_put_down(obj):
+                attempt.any_instance = (
+                    True  # "Place Bowl, Pickup LettuceSliced": the next slice, not that one
+                )
+                if obj in memory.where:
+                    x, _, z = memory.where[obj]
+                    memory.done_with.setdefault(obj, []).append((x, z))
+        return attempt
+
+    def _complete(
+        self,
+        subgoal: Subgoal,
+        reason: str,
+        point: tuple[float, float, float] | None,
+        instance_id: int | None = None,
+    ) -> None:
+        """ExecutePostActionProcess: the belief takes the subgoal's effect, memory where it happened."""
+        belief, memory = self.state.belief, self.state.memory
+        obj = subgoal.obj
+        if point is not None and subgoal.action is not A.NAVIGATE:
+            memory.where[obj] = point
+            if subgoal.action is A.PLACE and belief.held is not None:
+                memory.where[belief.held] = point
+            sliced = self.onto.get(obj).sliced_into
+            if subgoal.action is A.SLICE and sliced is not None:
+                memory.where[sliced] = point
+                memory.source[sliced] = point
+        if subgoal.action is A.PICKUP:
+            memory.where.pop(obj, None)
+        if subgoal.action in (A.PICKUP, A.OPEN) and instance_id is not None:
+            memory.instance[obj] = instance_id
+        self.state.belief = belief.apply(subgoal, self.onto)
+        self.state.attempt = None
+        self.pointer += 1
+        self.events.append(f"done {subgoal}: {reason}")
+
+    def _give_up(self, subgoal: Subgoal, outcome: GiveUp) -> None:
+        """A failed subgoal goes back to repair: drop it, repair the rest from the current belief."""
+        self.state.given_up += 1
+        self.state.attempt = None
+        if outcome.question is not None:
+            self.question = outcome.question
+        rest = self.plan[self.pointer + 1 :]
+        repaired = repair_plan(rest, self.onto, self.state.belief)
+        offset = self.pointer
+        self.repairs.append(
+            RepairEvent("subgoal-failed", offset, outcome.reason, removed=(subgoal,), inserted=())
+        )
+        self.repairs.extend(
+            RepairEvent(e.rule, e.index + offset, e.reason, e.removed, e.inserted) for e in repaired.log
+        )
+        self.plan = self.plan[: self.pointer] + list(repaired.plan)
+        self.events.append(f"gave up {subgoal}: {outcome.reason}")
+
+    def _before_front(self, obj: str, chosen: VisibleInstance) -> bool:
+        """For a container (Fridge, Cabinet...): the agent stands on its front side, where its inside will
+        show once open; for anything else, always."""
+        if obj not in self.onto.enclosing:
+            return True
+        body = self._container_body(obj, chosen.point)
+        front = self._front_cells(body) if body is not None else None
+        if front is None:
+            return True
+        return bool(front[self.view.map.world_to_cell(self.pose.x, self.pose.z)])
+
+    def _pursue(self, subgoal: Subgoal, attempt: Attempt) -> Outcome:
+        attempt.steps += 1
+        if attempt.steps > self.cfg.max_steps_per_subgoal:
+            return GiveUp(f"no progress on {subgoal} in {self.cfg.max_steps_per_subgoal} actions")
+        if attempt.failures >= self.cfg.max_failures:
+            return GiveUp(f"{subgoal} failed {attempt.failures} times")
+        obj = subgoal.obj
+        if subgoal.action is A.NAVIGATE:
+            if self.state.belief.held == obj:
+                return Done(f"IsGrasped: {obj} is in hand")
+            chosen = self._chosen_visible(obj, attempt)
+            if chosen is not None and interactive(self.view, obj) and self._before_front(obj, chosen):
+                return Done(f"Interactive({obj}): observed {chosen.nearest_m:.2f} m away")
+            return self._approach(obj, attempt)
+        action = ACTION_NAME_FOR_SUBGOAL[subgoal.action]
+        chosen = self._chosen_visible(obj, attempt)
+        if chosen is not None:
+            purpose: ClickPurpose = "surface" if subgoal.action is A.PLACE else "object"
+            click = self._click_on(chosen, attempt, purpose)
+            if click is not None:
+                return Act(action, f"Interactive({action}, {obj})", purpose="plan", click=click)
+        return self._approach(obj, attempt)

@@ -1,0 +1,483 @@
+"""Where to look when the target is not in the map: look around, explore frontiers, then open containers.
+
+JARVIS (seed 002, Alg. 3 line 79) hands exploration to its Goal Transformer; HLSM (seed 000, A.6) looks
+around 360° and walks to sampled frontier positions (``agent.navigation.exploration``), which is what we
+run until the learned explorer exists. What neither does, and what TEACh's kitchens need, is to look
+inside closed containers: an apple may sit in the fridge and a mug in one of twenty cabinets. Once the
+frontier is exhausted, the containers that may hold the target (``Ontology.enclosing`` types that accept
+it) are opened nearest first, looked into, and closed again when the target is not inside.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from agent.executor.approach import Approach
+from agent.executor.clicks import pixel_points
+from agent.executor.config import SearchConfig
+from agent.executor.mapview import MapCluster, SessionMapView
+from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState
+from agent.executor.step import Act, GiveUp, Outcome
+from agent.navigation.base import NavGoal, Navigator
+from agent.navigation.exploration import ExploreDecision, FrontierExplorer
+from symbolic.ontology import Ontology
+from symbolic.subgoals import SubgoalAction
+
+A = SubgoalAction
+
+MAX_SEARCHES_PER_STEP = 64
+"""Search decisions within one step (each skipped container or surface starts another): a bound."""
+
+
+@dataclass(frozen=True)
+class ContainerCandidate:
+    """One part of a mapped container cluster (one cabinet of a row, upper or lower) that may hold the
+    target."""
+
+    object_type: str
+    target: tuple[float, float, float]  # world (x, y, z): the part's centre at its band's middle height
+    top_low_m: float  # metres: the lowest the part's top can be
+    distance_m: float  # metres from the agent, horizontally
+
+
+def container_types(ontology: Ontology, target_type: str) -> tuple[str, ...]:
+    """Enclosing receptacle types (Fridge, Cabinet, Drawer, Microwave, ...) that accept the target."""
+    if target_type not in ontology or not ontology.get(target_type).pickupable:
+        return ()
+    return tuple(sorted(c for c in ontology.enclosing if ontology.accepts(c, target_type)))
+
+
+def searched_box(point: Point, config: SearchConfig) -> Box:
+    """The region a looked-into container part rules out when its own extent is unknown."""
+    r, h = config.checked_radius_m, config.band_gap_m
+    return (point[0] - r, point[1] - h, point[2] - r), (point[0] + r, point[1] + h, point[2] + r)
+
+
+def was_searched(point: Point, checked: list[Box], margin_m: float = 0.1) -> bool:
+    """Whether a container part lies in a container already looked into (its box, with a margin)."""
+    return any(all(lo[k] - margin_m <= point[k] <= hi[k] + margin_m for k in range(3)) for lo, hi in checked)
+
+
+def container_parts(
+    view: SessionMapView,
+    cluster: MapCluster,
+    object_type: str,
+    config: SearchConfig,
+    tile_m: float | None = None,
+) -> list[tuple[Point, float]]:
+    """(centre, lowest top) of each part of a receptacle cluster: ``tile_m`` (default ``part_m``) tiles of
+    its cells, each split into the height bands it occupies (a wall cabinet above a base cabinet are two
+    containers)."""
+    class_id = view.map.classes.id_of(object_type)
+    inner = view.map.config.height_edges_m
+    edges = np.asarray([0.0, *inner, inner[-1] + 0.2])
+    lows, highs = edges[:-1], edges[1:]  # [B] each
+    holds = view.map.voxels[cluster.ii, cluster.jj] == class_id  # [N, B]
+    tile = tile_m or config.part_m
+    column = np.floor(cluster.xs / tile).astype(np.int64)  # [N] tile index along x
+    row = np.floor(cluster.zs / tile).astype(np.int64)  # [N] along z
+    keys = (column - column.min()) * (int(row.max() - row.min()) + 1) + (row - row.min())  # [N] tile ids
+    parts = []
+    for key in np.unique(keys):
+        member = keys == key
+        if int(member.sum()) < config.min_part_cells:
+            continue
+        x, z = float(cluster.xs[member].mean()), float(cluster.zs[member].mean())
+        bins = np.flatnonzero(holds[member].any(axis=0))
+        for band in (bins[lows[bins] < config.upper_from_m], bins[lows[bins] >= config.upper_from_m]):
+            if len(band):
+                centre = float((lows[band] + highs[band]).mean() / 2)
+                parts.append(((x, centre, z), float(lows[band.max()])))
+    return parts
+
+
+def container_candidates(
+    view: SessionMapView,
+    ontology: Ontology,
+    target_type: str,
+    checked: list[Box],
+    config: SearchConfig,
+    prefer: str | None = None,
+) -> list[ContainerCandidate]:
+    """Mapped container parts that may hold the target and were not looked into yet: of the ``prefer``
+    type first (the plan's hint), nearest first."""
+    found = []
+    pose = view.pose
+    for object_type in container_types(ontology, target_type):
+        for cluster in view.clusters(object_type):
+            for point, top_low in container_parts(view, cluster, object_type, config):
+                if not was_searched(point, checked):
+                    distance = math.hypot(point[0] - pose.x, point[2] - pose.z)
+                    found.append(ContainerCandidate(object_type, point, top_low, distance))
+    return sorted(found, key=lambda c: (c.object_type != prefer, c.distance_m))
+
+
+def surface_types(ontology: Ontology, target_type: str) -> tuple[str, ...]:
+    """Receptacles in the open (tables, counters, shelves, sofas...) that accept the target."""
+    if target_type not in ontology or not ontology.get(target_type).pickupable:
+        return ()
+    return tuple(r for r in ontology.receptacles_for(target_type) if r not in ontology.enclosing)
+
+
+def surface_candidates(
+    view: SessionMapView, ontology: Ontology, target_type: str, looked: list[Box], config: SearchConfig
+) -> list[ContainerCandidate]:
+    """Parts of mapped open receptacles that may hold the target and were not looked at from near by yet,
+    nearest first: small things (a salt shaker on a high shelf, a card on a table) show only from near."""
+    found = []
+    pose = view.pose
+    for object_type in surface_types(ontology, target_type):
+        for cluster in view.clusters(object_type):
+            for point, top_low in container_parts(view, cluster, object_type, config, config.surface_part_m):
+                if not was_searched(point, looked):
+                    distance = math.hypot(point[0] - pose.x, point[2] - pose.z)
+                    found.append(ContainerCandidate(object_type, point, top_low, distance))
+    return sorted(found, key=lambda c: c.distance_m)
+
+
+def explore_step(
+    search: SearchState, view: SessionMapView, navigator: Navigator, rng: np.random.Generator
+) -> ExploreDecision | None:
+    """The next look-around turn or frontier move, or None (and ``search.exhausted``) when none is left.
+
+    The explorer is made on first use, so each subgoal's search starts with HLSM's 360° look-around.
+    """
+    if search.explorer is None:
+        search.explorer = FrontierExplorer(navigator, rng)
+    decision = search.explorer.next_action(view.grids(), view.map.frame, view.pose)
+    if decision.action is None:
+        search.exhausted = True
+        return None
+    search.explore_steps += 1
+    return decision
+
+
+class ContainerSearch(Approach):
+    """¬FindInMap(X): look around and explore, then open the containers that may hold it (module
+    docstring); the search's own Open and Close are judged here too."""
+
+    def _search(self, obj: str, attempt: Attempt) -> Outcome:
+        """¬FindInMap(X): look around and explore, then open the containers that may hold it.
+
+        When the plan just opened a container that may hold X (TEACh's "Open Cabinet, Pickup Mug"), X is
+        meant to be in one of that type: that container is looked into first, then the others of its type,
+        before any exploration.
+        """
+        search, cfg = attempt.search, self.cfg.search
+        self.searches += 1
+        if self.searches > MAX_SEARCHES_PER_STEP:
+            return GiveUp(f"search({obj}): no way to any place left to look")
+        if not search.hinted:
+            search.hinted = True
+            self._take_hint(obj, search)
+        if search.visit is not None:
+            return self._visit_container(obj, attempt)
+        checked = self.state.searched.setdefault(obj, [])
+        candidates = container_candidates(self.view, self.onto, obj, checked, cfg, prefer=search.prefer)
+        hinted = [c for c in candidates if c.object_type == search.prefer]
+        exploring = not search.exhausted and search.explore_steps < cfg.max_explore_steps
+        if exploring and not hinted:
+            if abs(self.pose.horizon - cfg.explore_horizon_deg) > 1e-3:
+                direction = "down" if cfg.explore_horizon_deg > self.pose.horizon else "up"
+                return Act(
+                    self._look_toward(cfg.explore_horizon_deg),
+                    f"search({obj}): look {direction} to {cfg.explore_horizon_deg:g}° to explore",
+                )
+            decision = explore_step(search, self.view, self.navigator, self.rng)
+            if decision is not None:
+                assert decision.action is not None
+                where = ""
+                if decision.target is not None:
+                    where = f" toward ({decision.target[0]:.2f}, {decision.target[1]:.2f})"
+                return Act(decision.action, f"search({obj}): {decision.reason}{where}", path=decision.path)
+        if not hinted and search.surfaces_looked < cfg.max_surfaces:
+            looked = self.state.looked_at.setdefault(obj, [])
+            surfaces = surface_candidates(self.view, self.onto, obj, looked, cfg)
+            if surfaces:
+                best = surfaces[0]
+                search.visit = ContainerVisit(best.object_type, best.target, best.top_low_m, stage="look")
+                x, y, z = best.target
+                self.events.append(
+                    f"search({obj}): will look at the {best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
+                )
+                return self._visit_container(obj, attempt)
+        if candidates and search.containers_opened < cfg.max_containers:
+            best = candidates[0]
+            search.visit = ContainerVisit(best.object_type, best.target, best.top_low_m)
+            x, y, z = best.target
+            self.events.append(
+                f"search({obj}): will open the {best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
+            )
+            return self._visit_container(obj, attempt)
+        opened = search.containers_opened
+        return GiveUp(
+            f"search({obj}): not found after exploring and opening {opened} containers",
+            question=f"Where is the {obj}?",
+        )
+
+    def _found(self, obj: str, attempt: Attempt) -> bool:
+        """X can be clicked now, or is mapped somewhere the navigator did not fail to reach this subgoal."""
+        return bool(self.view.clickable(obj) or self._clusters(obj, attempt))
+
+    def _take_hint(self, obj: str, search: SearchState) -> None:
+        """If the plan's last interaction opened a container that accepts X, look into that one first."""
+        for index in range(self.pointer - 1, -1, -1):
+            earlier = self.plan[index]
+            if earlier.action is A.NAVIGATE:
+                continue
+            kind = earlier.obj
+            if (
+                earlier.action is not A.OPEN
+                or kind not in self.onto.enclosing
+                or not self.onto.accepts(kind, obj)
+            ):
+                return
+            search.prefer = kind
+            opened = self.state.memory.where.get(kind)
+            checked = self.state.searched.setdefault(obj, [])
+            if opened is not None and not was_searched(opened, checked):
+                instance_id = self.state.memory.instance.get(kind)
+                search.visit = ContainerVisit(
+                    kind,
+                    opened,
+                    opened[1],
+                    stage="inspect",
+                    opened_at=opened,
+                    instance_id=instance_id,
+                    hinted=True,
+                )
+                if instance_id is not None:
+                    self.state.opened_for.setdefault(obj, []).append(instance_id)
+                self.events.append(f"search({obj}): the plan opened a {kind} for it; looking in")
+            return
+
+    def _visit_container(self, obj: str, attempt: Attempt) -> Outcome:
+        """Go to a container part, face it, open it, look in, and close it again when X is not inside."""
+        search = attempt.search
+        visit = search.visit
+        assert visit is not None
+        kind = visit.object_type
+        if visit.stage == "look":
+            return self._look_at_surface(obj, attempt, visit)
+        if visit.stage == "inspect":
+            if self._found(obj, attempt):
+                search.visit = None  # found: the approach takes over (the container stays open)
+                if visit.opened_at is not None:
+                    self.state.memory.where[kind] = visit.opened_at  # "Close <kind>" means this one
+                if visit.instance_id is not None:
+                    self.state.memory.instance[kind] = visit.instance_id
+                self.events.append(f"search({obj}): found it in the {kind}")
+                return self._approach(obj, attempt)
+            look = self._look_into(obj, attempt, visit)
+            if look is not None:
+                return look
+            visit.stage, visit.looks = "close", 0
+        action = "Open" if visit.stage == "open" else "Close"
+        target = visit.opened_at or visit.target
+        candidates = sorted(
+            (v for v in self.view.clickable(kind) if math.dist(v.point, target) <= self.cfg.search.part_m),
+            key=lambda v: (v.instance_id != visit.instance_id, math.dist(v.point, target)),
+        )
+        opened = self.state.opened_for.setdefault(obj, [])
+        if visit.stage == "open" and candidates and candidates[0].instance_id in opened:
+            return self._skip_container(obj, attempt, "was looked into already")
+        part = replace(self.view.spot_cluster(target, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m)
+        body = self._container_body(kind, target)
+        goal = self._goal_cells(part, attempt, None, self._front_cells(body) if body is not None else None)
+        here = self.view.map.world_to_cell(self.pose.x, self.pose.z)
+        standing = bool(goal.any() and goal[here])
+        if candidates:
+            chosen = candidates[0]
+            near = standing or not goal.any()  # opened from where its inside shows, not from afar
+            if visit.stage != "open" or near:
+                turn = self._turn_toward(chosen.point)
+                if visit.stage == "open" and turn is not None and visit.looks < self.cfg.look_sweep:
+                    visit.looks += 1  # open it facing it, so its inside is in view once open
+                    return Act(turn, f"search({obj}): face the {kind} before opening it")
+                click = self._click_on(chosen, attempt, "object")
+                if click is not None:
+                    if visit.stage == "open":
+                        visit.extent = self._extent_of(chosen.instance_id)
+                    reason = f"search({obj}): {action.lower()} the {kind}"
+                    return Act(action, reason, purpose="search", click=click)
+        if visit.stage == "close" and visit.looks < self.cfg.look_sweep:
+            visit.looks += 1  # it was in view a moment ago: look back at it before walking anywhere
+            glance = self._turn_toward(target) or self._pitch_toward(target)
+            if glance is not None:
+                return Act(glance, f"search({obj}): look back at the {kind} to close it")
+        if goal.any():
+            nav = self.navigator.next_action(
+                self.view.grids(), self.view.map.frame, self.pose, NavGoal(goal, face=part.cells)
+            )
+            if nav.action is not None:
+                return Act(
+                    nav.action, f"search({obj}): go to the {kind} to {action.lower()} it", path=nav.path
+                )
+            if nav.reason == "arrived" and visit.looks < 2 * self.cfg.look_sweep:
+                visit.looks += 1  # the navigator faced it; pitch toward it
+                glance = self._pitch_toward(target)
+                if glance is not None:
+                    return Act(glance, f"search({obj}): look at the {kind}")
+            if nav.reason == "unreachable":
+                unstick = self._unstick(attempt)
+                if unstick is not None:
+                    return unstick
+        return self._skip_container(obj, attempt, f"could not {action.lower()} it")
+
+    def _look_at_surface(self, obj: str, attempt: Attempt, visit: ContainerVisit) -> Outcome:
+        """Walk to an open receptacle's part, face it, and look at it from a few pitches."""
+        kind = visit.object_type
+        if self._found(obj, attempt):
+            attempt.search.visit = None
+            self.events.append(f"search({obj}): found it at the {kind}")
+            return self._approach(obj, attempt)
+        part = replace(
+            self.view.spot_cluster(visit.target, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m
+        )
+        goal = self._goal_cells(part, attempt)
+        here = self.view.map.world_to_cell(self.pose.x, self.pose.z)
+        if goal.any() and not goal[here]:
+            nav = self.navigator.next_action(
+                self.view.grids(), self.view.map.frame, self.pose, NavGoal(goal, face=part.cells)
+            )
+            if nav.action is not None:
+                return Act(nav.action, f"search({obj}): go to look at the {kind}", path=nav.path)
+            if nav.reason == "unreachable":
+                unstick = self._unstick(attempt)
+                if unstick is not None:
+                    return unstick
+        elif goal.any():
+            turn = self._turn_toward(visit.target)
+            if turn is not None and visit.looks < self.cfg.look_sweep:
+                visit.looks += 1
+                return Act(turn, f"search({obj}): face the {kind}")
+            if not visit.sweep and visit.inspect_steps == 0:
+                want = self._horizon_toward_point(visit.target)
+                visit.sweep = sorted(self._horizons(), key=lambda h: (abs(h - want), h))[:2]
+            while visit.sweep:
+                horizon = visit.sweep[0]
+                if abs(horizon - self.pose.horizon) < 1e-3:
+                    visit.sweep.pop(0)
+                    visit.inspect_steps += 1
+                    continue
+                return Act(self._look_toward(horizon), f"search({obj}): look at the {kind} ({horizon:g}°)")
+        attempt.search.surfaces_looked += 1
+        self.state.looked_at.setdefault(obj, []).append(searched_box(visit.target, self.cfg.search))
+        attempt.search.visit = None
+        return self._search(obj, attempt)
+
+    def _look_into(self, obj: str, attempt: Attempt, visit: ContainerVisit) -> Act | None:
+        """The next action of looking into an open container: pitch toward its inside (a few horizons,
+        nearest first), then from another standing cell well away from the first (the swung door or the
+        angle may hide the inside), at most ``inspect_viewpoints`` of them; None when done looking."""
+        assert visit.opened_at is not None
+        kind = visit.object_type
+        inside = visit.opened_at
+        if not visit.sweep and visit.inspect_steps == 0:
+            want = self._horizon_toward_point(inside)
+            visit.sweep = sorted(self._horizons(), key=lambda h: (abs(h - want), h))[: self.cfg.look_sweep]
+        while visit.sweep:
+            horizon = visit.sweep[0]
+            if abs(horizon - self.pose.horizon) < 1e-3:
+                visit.sweep.pop(0)
+                visit.inspect_steps += 1
+                continue
+            return Act(self._look_toward(horizon), f"search({obj}): look into the {kind} ({horizon:g}°)")
+        done_moving = not visit.hinted or visit.viewpoints >= self.cfg.search.inspect_viewpoints
+        if done_moving and not visit.moving:
+            return None  # other viewpoints only for the container the plan opened for X (X is in it)
+        if not visit.moving:
+            visit.viewpoints += 1
+            visit.moving = True
+            visit.seen_from.append((self.pose.x, self.pose.z))
+            visit.side = None
+        body = self._container_body(kind, inside)
+        part = replace(self.view.spot_cluster(inside, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m)
+        reachable = self._goal_cells(body or part, attempt)
+        X, Z = reachable.shape
+        frame = self.view.map.frame
+        xs = frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m  # [X]
+        zs = frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m  # [Z]
+        fresh = np.ones_like(reachable)
+        for x, z in visit.seen_from:
+            fresh &= np.hypot(xs[:, None] - x, zs[None, :] - z) > self.cfg.search.viewpoint_gap_m
+        goal = np.zeros_like(reachable)
+        for _, side, direction in self._sides(body or part):  # most floor first: likely its front
+            if visit.side is None and direction not in visit.sides and (reachable & fresh & side).any():
+                visit.side = direction  # each side of it once
+                visit.sides.append(direction)
+            if direction == visit.side:
+                goal = reachable & fresh & side
+        if not goal.any():
+            self.events.append(f"search({obj}): no other place to look into the {kind} from")
+            return None
+        centre = (body or part).x, (body or part).aim_m, (body or part).z
+        face = self.view.spot_cluster(centre, 0.1)
+        nav = self.navigator.next_action(self.view.grids(), frame, self.pose, NavGoal(goal, face=face.cells))
+        if nav.action is not None:
+            return Act(nav.action, f"search({obj}): look into the {kind} from elsewhere", path=nav.path)
+        if nav.reason != "arrived":
+            self.events.append(f"search({obj}): cannot reach another place to look into the {kind} from")
+            return None
+        visit.moving = False
+        visit.inspect_steps = 0
+        turn = self._turn_toward(centre)
+        if turn is not None:
+            return Act(turn, f"search({obj}): face the open {kind}")
+        return self._look_into(obj, attempt, visit)
+
+    def _container_body(self, kind: str, near: Point) -> MapCluster | None:
+        """The mapped cells of the container of type ``kind`` around a point of it (within a metre)."""
+        parts = [p for c in self.view.clusters(kind) if (p := c.around(near[0], near[2], 1.0)) is not None]
+        return min(parts, key=lambda c: math.hypot(c.x - near[0], c.z - near[2])) if parts else None
+
+    def _extent_of(self, instance_id: int) -> Box | None:
+        """The world box of an instance's visible pixels in this frame (every 4th pixel is enough)."""
+        rows, cols = np.nonzero((self.view.percept.instances == instance_id) & self.view.usable)
+        if len(rows) == 0:
+            return None
+        points = pixel_points(rows[::4], cols[::4], self.view.percept.depth, self.view.camera, self.pose)
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        return (float(lo[0]), float(lo[1]), float(lo[2])), (float(hi[0]), float(hi[1]), float(hi[2]))
+
+    def _visited_box(self, visit: ContainerVisit) -> Box:
+        """What a finished visit rules out: the opened instance's extent, else the region around its part."""
+        if visit.extent is None and visit.instance_id is not None:
+            visit.extent = self._extent_of(visit.instance_id)
+        return visit.extent or searched_box(visit.target, self.cfg.search)
+
+    def _skip_container(self, obj: str, attempt: Attempt, why: str) -> Outcome:
+        visit = attempt.search.visit
+        assert visit is not None
+        self.state.searched.setdefault(obj, []).append(self._visited_box(visit))
+        attempt.search.visit = None
+        self.events.append(f"search({obj}): skipping the {visit.object_type}: {why}")
+        return self._search(obj, attempt)
+
+    def _judge_search_action(self, pending: Pending, success: bool) -> None:
+        """The container search's own Open/Close (they serve the search, not a plan subgoal)."""
+        attempt = self.state.attempt
+        if attempt is None or attempt.search.visit is None:
+            return
+        search, visit = attempt.search, attempt.search.visit
+        if visit.stage == "open":
+            if pending.click is not None:
+                self.state.opened_for.setdefault(attempt.subgoal.obj, []).append(pending.click.instance_id)
+            if success and pending.click is not None:
+                visit.stage, visit.opened_at = "inspect", pending.click.point
+                visit.instance_id = pending.click.instance_id
+                search.containers_opened += 1
+                self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
+                self.state.memory.instance[visit.object_type] = pending.click.instance_id
+                self.events.append(f"search: opened {visit.object_type}")
+            elif pending.click is not None:  # nothing changed: it stands open already; look in all the same
+                visit.stage, visit.opened_at = "inspect", pending.click.point
+                visit.instance_id = pending.click.instance_id
+                self.events.append(f"search: the {visit.object_type} was open already")
+        elif visit.stage == "close":
+            self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))
+            search.visit = None
+            self.events.append(f"search: closed {visit.object_type} again")

@@ -1,0 +1,145 @@
+"""What the executor remembers between steps: JARVIS Algorithm 3's inputs beyond the map and the pointer.
+
+Algorithm 3 carries the previous action (to judge it and to avoid repeating a failed one, line 80), the
+belief the task-level rules reason over (updated by ``ExecutePostActionProcess`` on success, line 63) and,
+for its false-detection rule, how often the agent looked around a mapped target without seeing it.
+We add what a kitchen needs: where the agent last acted on each type (so "Close Fridge" closes the fridge
+it opened and "Pickup Mug" takes the mug it washed), the progress on the current subgoal (failed clicks,
+given-up standing positions, the search for an unmapped target) and the failure counts that bound an
+episode. Everything is plain data so the session pickles compactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from agent.executor.clicks import Click
+from agent.executor.looks import Looks
+from agent.executor.mapview import IgnoredSpot
+from agent.geometry import Pose
+from agent.navigation.exploration import FrontierExplorer
+from symbolic.belief import BeliefState
+from symbolic.subgoals import Subgoal
+
+Point = tuple[float, float, float]
+"""World (x, y, z), metres."""
+Spot = tuple[float, float]
+"""World (x, z), metres."""
+Box = tuple[Point, Point]
+"""World (min corner, max corner), metres: a container's extent."""
+
+PendingPurpose = Literal["plan", "search", "motion"]
+"""What the previous action served: the plan's current subgoal, the container search, or getting somewhere."""
+
+
+@dataclass
+class Pending:
+    """The action returned last step, kept to judge its outcome when the next frame arrives."""
+
+    action: str
+    purpose: PendingPurpose
+    plan_index: int | None  # the subgoal it served
+    pose: Pose  # where it was taken from
+    click: Click | None = None
+    colour: np.ndarray | None = None  # float32 [3]: the clicked instance's normalised colour before
+
+
+@dataclass
+class Memory:
+    """Where the agent dealt with each object type (world points): later subgoals pick the same instance."""
+
+    where: dict[str, Point] = field(default_factory=dict)
+    """Type -> the last point the agent acted on it, or put it down."""
+    done_with: dict[str, list[Spot]] = field(default_factory=dict)
+    """Type -> spots of instances the plan has finished with; a new "Navigate X" means another X."""
+    looks: dict[str, list[tuple[float, float, Looks]]] = field(default_factory=dict)
+    """Type -> (x, z, "clean" | "dirty") of instances the stain cue judged (``looks``)."""
+    source: dict[str, Point] = field(default_factory=dict)
+    """Type -> where instances of it came from (the pieces of a slice): more may lie hidden there."""
+    instance: dict[str, int] = field(default_factory=dict)
+    """Type -> segmentation id of the instance the agent last picked up (AI2-THOR's ids, and ours, are
+    stable within an episode): after putting it down, the plan's next use of the type means that one."""
+
+
+@dataclass
+class ContainerVisit:
+    """One closed container opened to look for the target (the search's last resort)."""
+
+    object_type: str
+    target: Point  # the container part to open: its mapped cells' centre, at the middle of its height band
+    top_low_m: float  # metres: the lowest its top can be (reach to it is judged on this)
+    stage: Literal["look", "open", "inspect", "close"] = "open"  # "look": an open receptacle, looked at
+    opened_at: Point | None = None
+    instance_id: int | None = None  # the instance opened (segmentation ids are stable within an episode)
+    inspect_steps: int = 0  # horizons looked into it from the current viewpoint
+    sweep: list[float] = field(default_factory=list)  # horizons still to look into it from here
+    viewpoints: int = 0  # other standing cells it was looked into from
+    seen_from: list[Spot] = field(default_factory=list)  # standing cells it was looked into from
+    moving: bool = False  # walking to another viewpoint
+    side: float | None = None  # direction (degrees) of the side being walked to
+    sides: list[float] = field(default_factory=list)  # sides of it walked to so far
+    hinted: bool = False  # the plan opened it for the target (so it is worth a second viewpoint)
+    extent: Box | None = None  # the opened instance's extent as seen when opening it
+    looks: int = 0  # turns and pitch changes spent without a clickable view of it
+
+
+@dataclass
+class SearchState:
+    """How far the search for an unmapped target has got (search.py)."""
+
+    explorer: FrontierExplorer | None = None
+    explore_steps: int = 0
+    exhausted: bool = False  # frontier exploration has nothing left to show
+    visit: ContainerVisit | None = None
+    containers_opened: int = 0
+    prefer: str | None = None  # container type the plan hints at (it just opened one for the target)
+    surfaces_looked: int = 0  # open receptacle parts looked at
+    hinted: bool = False  # the hint was looked for
+
+
+@dataclass
+class Attempt:
+    """Progress on the plan's current subgoal; replaced when the pointer moves."""
+
+    index: int
+    subgoal: Subgoal
+    first_step: int
+    steps: int = 0
+    failures: int = 0  # failed object actions for this subgoal
+    failed_clicks: list[tuple[int, int, int]] = field(default_factory=list)  # (instance id, row, col)
+    bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
+    unreachable: list[Spot] = field(default_factory=list)  # mapped clusters the navigator could not reach
+    destination_looks: int = 0  # looks at the destination without seeing the target, this visit
+    look_sweep: list[float] = field(default_factory=list)  # horizons still to try at the destination
+    any_instance: bool = False  # the remembered instance was not found where it was put: take any
+    unsticks: int = 0  # moves made because the navigator saw no way out
+    tried_source: bool = False  # went to look where the type's pieces came from
+    search: SearchState = field(default_factory=SearchState)
+
+    def instance_failures(self, instance_id: int) -> int:
+        return sum(1 for failed_id, _, _ in self.failed_clicks if failed_id == instance_id)
+
+
+@dataclass
+class ExecutorState:
+    """Everything the executor carries from one step to the next."""
+
+    belief: BeliefState
+    memory: Memory = field(default_factory=Memory)
+    attempt: Attempt | None = None
+    pending: Pending | None = None
+    ignored: list[IgnoredSpot] = field(default_factory=list)
+    explore_attempts: dict[str, int] = field(default_factory=dict)  # type -> destination look-arounds
+    searched: dict[str, list[Box]] = field(default_factory=dict)  # target type -> containers looked into
+    opened_for: dict[str, list[int]] = field(default_factory=dict)  # target type -> container ids opened
+    looked_at: dict[str, list[Box]] = field(default_factory=dict)  # target type -> open receptacles seen
+    failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
+    given_up: int = 0  # subgoals abandoned to repair
+    last_failed_action: str | None = None  # the previous action, when it failed (Alg. 3 line 80)
+    blocked_turns: list[tuple[float, float, float, str]] = field(default_factory=list)
+    """(x, z, yaw, turn) of turns that failed: holding something long, the way it would swing is blocked."""
+    long_held: list[str] = field(default_factory=list)  # held types a turn failed with (too long to swing)
+    manoeuvre: list[str] = field(default_factory=list)  # motions left of a side step made to turn with it

@@ -1,0 +1,108 @@
+"""The learned language planner in a session: JARVIS Algorithm 2's language step, then the same repair.
+
+Algorithm 2 feeds the dialogue and the history subgoals to the language model (the seed's Eq. (1); Eq. (2)
+for TfD, without history), takes the generated future subgoals and repairs them with the task-level rules
+against the belief after the history. Here the generation is validated first (``models.planner.predict``):
+names outside the ontology are mapped to the nearest type or dropped, and each such decision enters the
+repair log as a ``RepairEvent`` (rules ``model-output-mapped`` / ``model-output-dropped``, ``index`` being the
+item's position in the generated text), so the session's trace shows it beside the rules that fired.
+
+The model is loaded once per process and checkpoint (``load_generator`` is cached) and shared by every
+session; importing this module loads no model and no torch.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from agent.planning import PlannerConfig, PlanningContext, PlanOutcome, belief_after
+from models.planner import DEFAULT_CHECKPOINT_DIR
+from models.planner.text import format_planner_input
+from symbolic.ontology import Ontology, load_ontology
+from symbolic.repair import RepairEvent, repair_plan
+from symbolic.subgoals import Subgoal, format_subgoals
+
+if TYPE_CHECKING:
+    from models.planner.predict import PlanPrediction, SubgoalGenerator
+
+LOG = logging.getLogger(__name__)
+
+TRUNCATED_RULE = "plan-truncated"
+"""Logged when a plan is cut to ``PlannerConfig.max_subgoals`` (the seed's 300)."""
+
+
+@functools.cache
+def load_generator(checkpoint: Path = DEFAULT_CHECKPOINT_DIR) -> SubgoalGenerator:
+    """The planner model of ``checkpoint``, loaded on first use and then shared (one per process)."""
+    from models.planner.predict import SubgoalGenerator
+
+    LOG.info("loading the language planner from %s", checkpoint)
+    return SubgoalGenerator.from_directory(Path(checkpoint), load_ontology())
+
+
+def validation_events(prediction: PlanPrediction) -> list[RepairEvent]:
+    """The generator's mapped/dropped items as repair-log entries."""
+    return [
+        RepairEvent(
+            rule=f"model-output-{note.kind}",
+            index=note.item_index,
+            reason=f"the model wrote {note.item!r}: {note.detail}",
+            removed=(),
+            inserted=note.subgoals,
+        )
+        for note in prediction.notes
+    ]
+
+
+def _truncated(plan: list[Subgoal], limit: int, stage: str) -> tuple[list[Subgoal], list[RepairEvent]]:
+    if len(plan) <= limit:
+        return plan, []
+    event = RepairEvent(
+        rule=TRUNCATED_RULE,
+        index=limit,
+        reason=f"the {stage} plan has {len(plan)} subgoals; kept the first {limit}",
+        removed=tuple(plan[limit:]),
+        inserted=(),
+    )
+    return plan[:limit], [event]
+
+
+class ModelPlanner:
+    """Plans with the seq2seq language planner; a new commander turn re-plans (``replans_on_dialogue``)."""
+
+    name = "model"
+    replans_on_dialogue = True
+
+    def __init__(
+        self, ontology: Ontology, config: PlannerConfig, generator: SubgoalGenerator | None = None
+    ) -> None:
+        self.ontology = ontology
+        self.config = config
+        self.generator = generator if generator is not None else load_generator()
+
+    def plan(self, context: PlanningContext) -> PlanOutcome:
+        """Generate from the dialogue (and instruction) plus history, validate, truncate, repair."""
+        turns = [(turn.speaker, turn.text) for turn in context.dialogue]
+        if context.instruction:
+            turns.insert(0, ("Commander", context.instruction))
+        if not any(text.strip() for _, text in turns):
+            return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
+        source = format_planner_input(turns, context.history_subgoals)
+        prediction = self.generator.predict(source)
+        events = validation_events(prediction)
+        plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
+        repaired = repair_plan(plan, self.ontology, belief_after(context.history_subgoals, self.ontology))
+        final, cut_after = _truncated(repaired.plan, self.config.max_subgoals, "repaired")
+        log = (*events, *cut, *repaired.log, *cut_after)
+        LOG.info(
+            "model plan: %d generated, %d after repair, %d validation changes, %d repairs: %s",
+            len(prediction.subgoals),
+            len(final),
+            len(events),
+            len(repaired.log),
+            format_subgoals(final),
+        )
+        return PlanOutcome(plan=tuple(final), repair_log=log, source="model")

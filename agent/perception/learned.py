@@ -1,0 +1,211 @@
+"""Learned perception: depth, confidence mask, classes and instances from RGB alone (TEACh sends only RGB).
+
+The JARVIS seed's Visual Semantic module with HLSM's perception step (§4.2, A.3): the depth U-Net gives a
+distribution over depth bins per pixel, whose expectation is the depth and whose 90% interval width W90
+decides, with equation (5), which pixels the map may trust (c1 = 0.3; c2 = 1.0 on pixels where the current
+subgoal's class has probability over 0.5). The segmentation U-Net's class probabilities enter the map as
+their argmax (the map keeps one class per voxel), after dropping to "unknown" the pixels whose top class
+is less likely than ``min_class_probability``: an unsure pixel still blocks space but names nothing.
+Instances come from ``models.perception.instances`` (components per class cut at depth discontinuities).
+
+Both networks run at their own small input side (128 or 96 pixels; the frame is area-downscaled) and
+their outputs are resized back to the camera's size by nearest neighbour, to fit a step into the CPU
+budget (measured by ``bench/perception_speed.py``; give torch one thread per serving process). They
+were trained on 90° frames (TEACh's camera): depth from a camera with another field of view is scaled
+wrongly, so sessions with ALFRED's 60° camera should prefer oracle perception or networks trained on
+their own frames (``models/perception/dataset.py``).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal
+
+import cv2
+import numpy as np
+
+import models
+from agent.classes import ClassIndex, load_class_index
+from agent.geometry import Camera
+from agent.perception.base import Observation, ObservationError, Percept, confident_depth
+from agent.perception.oracle import OraclePerception
+
+if TYPE_CHECKING:
+    import torch
+
+    from models.perception.network import PerceptionNet
+
+Source = Literal["learned", "given"]
+"""Where one half of the percept comes from: the networks, or the caller's frames (oracle)."""
+DEFAULT_CHECKPOINTS = Path(models.__file__).resolve().parent / "checkpoints"
+"""The shipped checkpoints: ``depth/`` and ``segmentation/`` (model cards inside)."""
+
+
+@dataclass(frozen=True)
+class LearnedConfig:
+    """Where the networks are and how their outputs become a percept."""
+
+    depth_checkpoint: Path = DEFAULT_CHECKPOINTS / "depth"
+    segmentation_checkpoint: Path = DEFAULT_CHECKPOINTS / "segmentation"
+    c1: float = 0.3  # HLSM eq. (5): trusted when W90 < c1 · E ...
+    c2: float = 1.0  # ... or W90 < c2 · E on the current target's pixels
+    target_probability: float = 0.5  # HLSM eq. (5): target pixels are those with [IS]_argC > 0.5
+    min_class_probability: float = 0.3  # below this the pixel's class is unknown (0); its depth still counts
+    depth_source: Source = "learned"  # "given": the caller's depth (and W90), as oracle perception
+    classes_source: Source = "learned"  # "given": the caller's segmentation, as oracle perception
+
+
+@dataclass(frozen=True)
+class LearnedModels:
+    """The two networks, loaded once per process and shared by every session (DESIGN.md §9)."""
+
+    depth: PerceptionNet
+    segmentation: PerceptionNet
+
+
+@functools.lru_cache(maxsize=4)
+def load_learned_models(depth_dir: Path, segmentation_dir: Path) -> LearnedModels:
+    """Load (once per pair of directories) the depth and segmentation checkpoints; FileNotFoundError says
+    which directory lacks what."""
+    from models.perception.network import load_checkpoint  # torch loads here, not at import
+
+    return LearnedModels(
+        depth=load_checkpoint(depth_dir, expect="depth"),
+        segmentation=load_checkpoint(segmentation_dir, expect="segmentation"),
+    )
+
+
+@dataclass(frozen=True)
+class _Segmented:
+    """Classes and instances at the camera's size, and the current target's mask (None: no target)."""
+
+    class_ids: np.ndarray  # uint8 [H, W] agent class ids
+    instances: np.ndarray  # int32 [H, W]
+    instance_types: dict[int, str]
+    target: np.ndarray | None  # bool [H, W]
+
+
+class LearnedPerception:
+    """Percepts from the observation's RGB through the depth and segmentation networks.
+
+    ``config.depth_source`` / ``config.classes_source`` = "given" take that half from the caller instead
+    (as oracle perception does), which gives the JARVIS seed's ablation settings: learned depth with true
+    segmentation, and learned segmentation with true depth.
+    """
+
+    def __init__(
+        self,
+        camera: Camera,
+        config: LearnedConfig = LearnedConfig(),
+        classes: ClassIndex | None = None,
+        models: LearnedModels | None = None,
+    ) -> None:
+        self.camera = camera
+        self.config = config
+        self.classes = classes or load_class_index()
+        self.models = models or load_learned_models(config.depth_checkpoint, config.segmentation_checkpoint)
+        self._oracle = OraclePerception(camera, classes=self.classes)
+        network_classes = self.models.segmentation.config.classes
+        self._to_agent_id = np.array(
+            [self.classes.id_of(name) if name in self.classes.types else 0 for name in network_classes],
+            dtype=np.uint8,
+        )
+        """uint8 [C]: network output channel -> agent class id (0 for Nothing and unknown names)."""
+        self._channel_of = {name: k for k, name in enumerate(network_classes)}
+
+    def perceive(self, obs: Observation, *, target_type: str | None) -> Percept:
+        """Needs RGB (ObservationError otherwise), plus depth and segmentation for a "given" half."""
+        if obs.rgb is None:
+            raise ObservationError("rgb", "is required by learned perception")
+        H, W = self.camera.height, self.camera.width
+        if obs.rgb.shape != (H, W, 3):
+            raise ObservationError("rgb", f"has shape {obs.rgb.shape}, the camera's is {(H, W, 3)}")
+        given = None
+        if "given" in (self.config.depth_source, self.config.classes_source):
+            given = self._oracle.perceive(obs, target_type=target_type)
+        if given is not None and self.config.depth_source == "given":
+            assert obs.depth is not None, "oracle perception checked depth"
+            depth, width90 = obs.depth, obs.depth_uncertainty
+        else:
+            depth, width90 = self.estimate_depth(obs.rgb)
+        if given is not None and self.config.classes_source == "given":
+            target = None
+            if target_type is not None and target_type in self.classes.types:
+                target = given.class_ids == self.classes.id_of(target_type)
+            seen = _Segmented(given.class_ids, given.instances, dict(given.instance_types), target)
+        else:
+            seen = self.estimate_classes(obs.rgb, depth, target_type)
+        valid = confident_depth(depth, width90, seen.target, c1=self.config.c1, c2=self.config.c2)
+        return Percept(
+            depth=depth,
+            depth_valid=valid,
+            class_ids=seen.class_ids,
+            instances=seen.instances,
+            instance_types=seen.instance_types,
+        )
+
+    def estimate_depth(self, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Expected depth E and interval width W90, float32 [H, W] metres (HLSM eq. (5)'s inputs)."""
+        import torch
+
+        from models.perception.depth import expected_depth, interval_width_90
+
+        net = self.models.depth
+        bins = net.config.bins
+        assert bins is not None, "the depth checkpoint has no bins"
+        with torch.inference_mode():
+            probs = net(_network_input(rgb, net.config.input_side)).softmax(dim=1)  # [1, B, s, s]
+            expected = expected_depth(probs, bins)[0].numpy()
+            width90 = interval_width_90(probs, bins)[0].numpy()
+        return self._upsample(expected.astype(np.float32)), self._upsample(width90.astype(np.float32))
+
+    def estimate_classes(self, rgb: np.ndarray, depth: np.ndarray, target_type: str | None) -> _Segmented:
+        """Argmax classes (unsure pixels unknown), instances split at ``depth``'s discontinuities, and the
+        target's mask where its probability exceeds ``target_probability``."""
+        import torch
+
+        from models.perception.instances import split_instances
+
+        net = self.models.segmentation
+        side = net.config.input_side
+        with torch.inference_mode():
+            probs = net(_network_input(rgb, side)).softmax(dim=1)[0]  # [C, s, s]
+            top_probability, top_channel = probs.max(dim=0)  # [s, s] each
+            channel = top_channel.numpy()
+            channel[top_probability.numpy() < self.config.min_class_probability] = 0
+            target = None
+            if target_type is not None and target_type in self._channel_of:
+                target = (probs[self._channel_of[target_type]] > self.config.target_probability).numpy()
+        depth_small = cv2.resize(depth, (side, side), interpolation=cv2.INTER_NEAREST)
+        instances, instance_channel = split_instances(channel, depth_small)
+        names = net.config.classes
+        return _Segmented(
+            class_ids=self._upsample(self._to_agent_id[channel]),
+            instances=self._upsample(instances),
+            instance_types={i: names[c] for i, c in instance_channel.items()},
+            target=None if target is None else self._upsample(target.view(np.uint8)).view(bool),
+        )
+
+    def _upsample(self, image: np.ndarray) -> np.ndarray:
+        """[s, s] -> the camera's [H, W] by nearest neighbour (keeps classes, ids and depth edges crisp)."""
+        return cv2.resize(image, (self.camera.width, self.camera.height), interpolation=cv2.INTER_NEAREST)
+
+
+def _network_input(rgb: np.ndarray, side: int) -> torch.Tensor:
+    """uint8 [1, side, side, 3]: the frame area-downscaled to the network's side."""
+    import torch
+
+    small = cv2.resize(rgb, (side, side), interpolation=cv2.INTER_AREA)
+    return torch.from_numpy(np.ascontiguousarray(small))[None]
+
+
+def learned_depth_only(camera: Camera) -> LearnedPerception:
+    """JARVIS ablation: learned depth, the caller's segmentation."""
+    return LearnedPerception(camera, LearnedConfig(classes_source="given"))
+
+
+def learned_segmentation_only(camera: Camera) -> LearnedPerception:
+    """JARVIS ablation: learned segmentation, the caller's depth."""
+    return LearnedPerception(camera, LearnedConfig(depth_source="given"))

@@ -1,0 +1,153 @@
+"""Goal transformer vs frontier exploration on the same search episodes of unseen worlds.
+
+The issue: the JARVIS seed's Goal Transformer explores when the target is not in the map; compare it with
+HLSM's frontier exploration on the same episodes (steps to first sight of the target, success rate) and
+make the better one the default. Each episode is a valid_unseen search phase from
+``harness.perception_data.search_episodes`` (a start pose from which the target is out of view; the
+expert's shortest search is reported for scale). Both explorers drive the agent's own semantic map with
+oracle perception (so only the exploration differs), the simulator executes their actions, and the episode
+succeeds when the target comes into view (the expert's sighting rule) within ``--max-steps`` actions.
+
+Run: ``.venv/bin/python -m bench.goal_transformer_vs_frontier [--episodes 30]``; writes
+``bench/results/goal_transformer_vs_frontier.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from agent.exploration_gt import GoalTransformerExplorer
+from agent.geometry import Camera, Pose
+from agent.mapping import SemanticMap
+from agent.navigation import make_navigator
+from agent.navigation.base import NavGrids
+from agent.navigation.exploration import FrontierExplorer
+from agent.perception import OraclePerception
+from agent.perception.base import Observation
+from harness.camera import CameraSpec
+from harness.perception_data import SearchConfig, SightingCheck, search_episodes
+from harness.simulator import Simulator
+from harness.world import World
+from symbolic.thor import TEACH_HFOV_DEG
+
+RESULTS = Path(__file__).resolve().parent / "results" / "goal_transformer_vs_frontier.json"
+SEED = 7
+SIDE = 300
+EXPLORERS = ("frontier", "goal_transformer")
+
+
+def run_search(
+    world: World, record: dict[str, Any], explorer_name: str, max_steps: int, seed: int
+) -> dict[str, Any]:
+    """One explorer on one episode: steps until the target is in view (None if it never is)."""
+    spec = CameraSpec(SIDE, SIDE, TEACH_HFOV_DEG)
+    camera = Camera(SIDE, SIDE, TEACH_HFOV_DEG)
+    sim = Simulator(world, spec)
+    target = str(record["target"])
+    target_ids = {world.instance_ids[o.object_id] for o in world.of_type(target)}
+    sighted = SightingCheck(world.copy(), target_ids, world.agent.horizon, SearchConfig())
+    agent = world.agent
+    semantic_map = SemanticMap(camera, Pose(agent.x, agent.z, float(agent.yaw), agent.horizon))
+    perception = OraclePerception(camera)
+    rng = np.random.default_rng(seed)
+    frontier = FrontierExplorer(make_navigator("fmm"), rng) if explorer_name == "frontier" else None
+    learned = GoalTransformerExplorer(rng) if explorer_name == "goal_transformer" else None
+    subgoals = [(str(a), str(o)) for a, o in record["subgoals"]]
+    last_success: bool | None = None
+    for step in range(max_steps + 1):
+        state = (*world.room.cell_of(agent.x, agent.z), (agent.yaw // 90) % 4)
+        if sighted(state):
+            return {"found": True, "steps": step}
+        if step == max_steps:
+            break
+        frame = sim.observe(noise_seed=seed * 1000 + step)
+        pose = Pose(agent.x, agent.z, float(agent.yaw), agent.horizon)
+        obs = Observation(rgb=frame.rgb, depth=frame.depth, instances=frame.instances, legend=frame.legend)
+        semantic_map.update(perception.perceive(obs, target_type=target), pose)
+        grids = NavGrids(
+            obstacles=semantic_map.obstacles(),
+            explored=semantic_map.explored() | semantic_map.visited(),
+            collisions=semantic_map.collisions(),
+        )
+        if frontier is not None:
+            decision = frontier.next_action(grids, semantic_map.frame, pose)
+        else:
+            assert learned is not None and frame.rgb is not None
+            decision = learned.next_action(
+                grids,
+                semantic_map.frame,
+                pose,
+                rgb=frame.rgb,
+                subgoals=subgoals,
+                last_action_success=last_success,
+            )
+        if decision.action is None:
+            break
+        result = sim.step(decision.action)
+        last_success = result.success
+        if not result.success:
+            semantic_map.record_collision(pose, decision.action)
+    return {"found": False, "steps": None}
+
+
+def summarize(rows: list[dict[str, Any]], name: str) -> dict[str, Any]:
+    found = [r[name]["steps"] for r in rows if r[name]["found"]]
+    return {
+        "success_rate": len(found) / len(rows),
+        "mean_steps_to_sight_when_found": float(np.mean(found)) if found else None,
+        "median_steps_to_sight_when_found": float(np.median(found)) if found else None,
+    }
+
+
+def _rank(summary: dict[str, Any]) -> tuple[float, float]:
+    """Higher success rate first, then fewer steps to first sight."""
+    steps = summary["mean_steps_to_sight_when_found"]
+    return summary["success_rate"], -(steps if steps is not None else float("inf"))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.goal_transformer_vs_frontier", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--episodes", type=int, default=30)
+    parser.add_argument("--max-steps", type=int, default=100)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    rows = []
+    for n, (world, record, expert) in enumerate(search_episodes("valid_unseen", args.episodes, SEED)):
+        row: dict[str, Any] = {
+            "target": record["target"],
+            "room": record["room_kind"],
+            "expert_steps": len(expert),
+        }
+        for name in EXPLORERS:
+            row[name] = run_search(world.copy(), record, name, args.max_steps, SEED + n)
+        rows.append(row)
+        print(f"{n:3d} {record['target']:<16} expert {len(expert):3d}  " + "  ".join(
+            f"{name} {row[name]['steps'] if row[name]['found'] else '-'}" for name in EXPLORERS
+        ))  # fmt: skip
+    result = {
+        "episodes": len(rows),
+        "max_steps": args.max_steps,
+        "split": "valid_unseen",
+        "perception": "oracle (only exploration differs)",
+        "expert_mean_steps": float(np.mean([r["expert_steps"] for r in rows])),
+        **{name: summarize(rows, name) for name in EXPLORERS},
+        "rows": rows,
+    }
+    result["better"] = max(EXPLORERS, key=lambda name: _rank(result[name]))
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2))
+    print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()

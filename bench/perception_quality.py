@@ -1,0 +1,100 @@
+"""Quality of the shipped depth and segmentation networks on frames of unseen worlds.
+
+The issue's bars: depth abs rel ≤ 0.15 and segmentation mIoU ≥ 0.6 on valid_unseen frames; also reported:
+δ<1.25, RMSE, task-class mIoU and the IoU of every class TEACh tasks name. Frames are rendered by the
+harness from valid_unseen worlds (``harness.perception_data``; never seen in training) unless ``--frames``
+names a folder in the dataset layout. ``--compare-depth DIR ...`` evaluates further depth checkpoints on
+the same frames (the issue asks which bins serve better: HLSM's 50 x 0.1 m or TEACh's 100 x 5 cm).
+
+Run: ``.venv/bin/python -m bench.perception_quality [--worlds 60]``; writes
+``bench/results/perception_quality.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from agent.perception.learned import LearnedConfig
+from harness.camera import CameraSpec
+from harness.perception_data import render_frames
+from models.perception.dataset import load_frames
+from models.perception.evaluate import evaluate_model
+from models.perception.network import load_checkpoint, read_info
+
+RESULTS = Path(__file__).resolve().parent / "results" / "perception_quality.json"
+SEED = 0
+DEPTH_ABS_REL_MAX = 0.15
+SEGMENTATION_MIOU_MIN = 0.6
+FRAME_SIDE = 256  # rendered frames (px); metrics are computed at this side
+
+
+def _depth_entry(directory: Path, metrics: dict[str, Any]) -> dict[str, Any]:
+    config, info = read_info(directory)
+    assert config.bins is not None
+    return {
+        "checkpoint": str(directory),
+        "bins": config.bins.to_dict(),
+        "input_side": config.input_side,
+        "train_steps": info.step,
+        **{k: metrics[k] for k in ("abs_rel", "delta_1", "rmse_m", "pixels")},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.perception_quality", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument(
+        "--frames", type=Path, default=None, help="evaluate on this folder instead of rendering"
+    )
+    parser.add_argument(
+        "--worlds", type=int, default=60, help="valid_unseen worlds to render (10 frames each)"
+    )
+    parser.add_argument("--compare-depth", type=Path, nargs="*", default=[])
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    config = LearnedConfig()
+    with tempfile.TemporaryDirectory() as scratch:
+        root = args.frames
+        if root is None:
+            root = Path(scratch) / "valid_unseen"
+            render_frames(
+                root, "valid_unseen", args.worlds, 10, CameraSpec(FRAME_SIDE, FRAME_SIDE, 90.0), SEED
+            )
+        frames = load_frames(root, FRAME_SIDE, use_cache=args.frames is not None)
+        depth_dirs = [config.depth_checkpoint, *args.compare_depth]
+        depth = [_depth_entry(d, evaluate_model(load_checkpoint(d), frames)) for d in depth_dirs]
+        seg = evaluate_model(load_checkpoint(config.segmentation_checkpoint), frames)
+    result = {
+        "frames": {
+            "source": str(args.frames or "rendered valid_unseen"),
+            "count": len(frames),
+            "side": FRAME_SIDE,
+        },
+        "depth": depth[0],
+        "depth_compared": depth[1:],
+        "segmentation": {"checkpoint": str(config.segmentation_checkpoint), **seg},
+        "bars": {
+            "depth_abs_rel_max": DEPTH_ABS_REL_MAX,
+            "depth_met": depth[0]["abs_rel"] <= DEPTH_ABS_REL_MAX,
+            "segmentation_miou_min": SEGMENTATION_MIOU_MIN,
+            "segmentation_met": seg["miou"] >= SEGMENTATION_MIOU_MIN,
+        },
+    }
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
+    summary = {k: v for k, v in result.items() if k != "segmentation"}
+    summary["segmentation"] = {k: seg[k] for k in ("miou", "task_miou", "pixel_accuracy", "task_class_iou")}
+    print(json.dumps(summary, indent=2))
+    print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,234 @@
+"""A typed HTTP client of the service's native API (DESIGN.md §4), as a simulator harness uses it.
+
+The harness talks to the agent only through this client: it never imports ``app``, ``agent`` or ``models``.
+Frames are sent as AI2-THOR provides them to a TEACh runner: RGB as PNG (or JPEG), depth as a 16-bit PNG of
+millimetres (or raw float32 metres) and, for oracle perception, instance ids as a 16-bit PNG with an
+``{id: object type}`` legend; by default base64 in JSON, or as file parts of a multipart form.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any, Literal
+
+import cv2
+import httpx
+import numpy as np
+
+from harness.render import Frame
+from harness.world import AgentState
+
+MILLIMETRES_PER_METRE = 1000.0
+PNG_COMPRESSION = 1
+"""cv2 PNG level 0-9: 1 keeps encoding at a few ms per 300x300 frame; the bytes stay lossless."""
+
+RgbFormat = Literal["png", "jpeg"]
+DepthEncoding = Literal["png16_mm", "float32_m"]
+Transport = Literal["json", "multipart"]
+
+
+@dataclass(frozen=True)
+class FrameEncoding:
+    """How a frame travels to the step route."""
+
+    rgb_format: RgbFormat = "png"  # png: lossless; jpeg: what TEACh's RemoteModel sends
+    jpeg_quality: int = 90  # 0-100, only for rgb_format "jpeg"
+    depth: DepthEncoding = "png16_mm"  # 16-bit PNG of millimetres, or little-endian float32 metres
+    transport: Transport = "json"  # base64 in a JSON body, or file parts of multipart/form-data
+    send_rgb: bool = True  # oracle perception reads only depth + segmentation; AI2-THOR always has RGB
+    send_oracle: bool = True  # depth + instance segmentation and its legend (what oracle perception reads)
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.jpeg_quality <= 100:
+            raise ValueError(f"jpeg_quality must lie in 1..100, got {self.jpeg_quality}")
+        if not (self.send_rgb or self.send_oracle):
+            raise ValueError(
+                "a frame needs rgb or the oracle channels: send_rgb and send_oracle are both off"
+            )
+
+
+class ServiceError(Exception):
+    """A non-2xx answer of the service, with its ``{"error", "detail"}`` body."""
+
+    def __init__(self, status: int, error: str, detail: str) -> None:
+        super().__init__(f"HTTP {status} {error}: {detail}")
+        self.status = status
+        self.error = error
+        self.detail = detail
+
+
+def pose_of(agent: AgentState) -> dict[str, float]:
+    """The request's ``pose`` (world frame) from the simulator's agent, as AI2-THOR metadata reports it."""
+    return {"x": agent.x, "z": agent.z, "yaw": float(agent.yaw % 360), "horizon": float(agent.horizon)}
+
+
+def encode_rgb(rgb: np.ndarray, fmt: RgbFormat = "png", jpeg_quality: int = 90) -> bytes:
+    """uint8 [H, W, 3] RGB as PNG or JPEG bytes."""
+    bgr = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2BGR)
+    if fmt == "jpeg":
+        ok, data = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
+    else:
+        ok, data = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION])
+    if not ok:
+        raise ValueError(f"could not encode an rgb frame of shape {rgb.shape} as {fmt}")
+    return data.tobytes()
+
+
+def encode_uint16_png(pixels: np.ndarray) -> bytes:
+    """A one-channel 16-bit PNG; values must already lie in 0..65535."""
+    ok, data = cv2.imencode(".png", pixels.astype(np.uint16), [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION])
+    if not ok:
+        raise ValueError(f"could not encode a uint16 image of shape {pixels.shape}")
+    return data.tobytes()
+
+
+def encode_depth(depth_m: np.ndarray, encoding: DepthEncoding = "png16_mm") -> bytes:
+    """float32 [H, W] metres (0 = no reading) as a 16-bit millimetre PNG or raw float32 metres."""
+    if encoding == "float32_m":
+        return np.ascontiguousarray(depth_m, dtype="<f4").tobytes()
+    millimetres = np.clip(np.rint(depth_m * MILLIMETRES_PER_METRE), 0, np.iinfo(np.uint16).max)
+    return encode_uint16_png(millimetres)
+
+
+def encode_instances(instances: np.ndarray) -> bytes:
+    """int32 [H, W] instance ids as a 16-bit PNG (the service's segmentation input)."""
+    if instances.size and (instances.min() < 0 or instances.max() > np.iinfo(np.uint16).max):
+        raise ValueError(f"instance ids must lie in 0..65535, got {instances.min()}..{instances.max()}")
+    return encode_uint16_png(instances)
+
+
+def observation_parts(frame: Frame, encoding: FrameEncoding) -> dict[str, bytes]:
+    """The encoded images of one frame, by the step request's field names."""
+    parts: dict[str, bytes] = {}
+    if encoding.send_oracle:
+        parts["depth"] = encode_depth(frame.depth, encoding.depth)
+        parts["segmentation"] = encode_instances(frame.instances)
+    if encoding.send_rgb:
+        if frame.rgb is None:
+            raise ValueError("send_rgb is set but the frame was rendered without rgb")
+        parts["rgb"] = encode_rgb(frame.rgb, encoding.rgb_format, encoding.jpeg_quality)
+    return parts
+
+
+def _form_value(value: object) -> str:
+    """A multipart text field: JSON for booleans and objects (pose, legend), plain text otherwise."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
+    return json.dumps(value)
+
+
+def _file_name(field: str, encoding: FrameEncoding) -> str:
+    if field == "rgb":
+        return "rgb.jpg" if encoding.rgb_format == "jpeg" else "rgb.png"
+    if field == "depth" and encoding.depth == "float32_m":
+        return "depth.f32"
+    return f"{field}.png"
+
+
+def _error_of(response: httpx.Response) -> ServiceError:
+    try:
+        body = response.json()
+        return ServiceError(response.status_code, str(body["error"]), str(body["detail"]))
+    except (ValueError, KeyError, TypeError):
+        return ServiceError(response.status_code, "unexpected_response", response.text[:500])
+
+
+class AgentClient:
+    """One connection pool to a running service; use as a context manager or call ``close()``."""
+
+    def __init__(self, base_url: str, timeout: float = 30.0, encoding: FrameEncoding | None = None) -> None:
+        self.base_url = base_url.rstrip("/")
+        self.encoding = encoding or FrameEncoding()
+        self._http = httpx.Client(base_url=self.base_url, timeout=timeout)
+
+    def __enter__(self) -> AgentClient:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def _send(self, method: str, path: str, **kwargs: Any) -> httpx.Response:
+        response = self._http.request(method, path, **kwargs)
+        if response.status_code >= 400:
+            raise _error_of(response)
+        return response
+
+    # ---- service ------------------------------------------------------------------------------------
+
+    def health(self) -> dict[str, Any]:
+        """``GET /healthz``: liveness and version."""
+        return dict(self._send("GET", "/healthz").json())
+
+    def ready(self) -> dict[str, Any]:
+        """``GET /readyz``: raises ServiceError 503 while the service is starting."""
+        return dict(self._send("GET", "/readyz").json())
+
+    # ---- sessions -----------------------------------------------------------------------------------
+
+    def create_session(self, payload: Mapping[str, Any]) -> dict[str, Any]:
+        """``POST /v1/sessions`` with a SessionCreate body; returns the SessionPublic (with the plan)."""
+        return dict(self._send("POST", "/v1/sessions", json=dict(payload)).json())
+
+    def get_session(self, session_id: str) -> dict[str, Any]:
+        return dict(self._send("GET", f"/v1/sessions/{session_id}").json())
+
+    def add_utterance(self, session_id: str, speaker: str, text: str) -> dict[str, Any]:
+        body = {"speaker": speaker, "text": text}
+        return dict(self._send("POST", f"/v1/sessions/{session_id}/utterances", json=body).json())
+
+    def delete(self, session_id: str) -> None:
+        self._send("DELETE", f"/v1/sessions/{session_id}")
+
+    def trace(self, session_id: str, since: int | None = None) -> list[dict[str, Any]]:
+        """``GET .../trace``: the session's ndjson trace, one dict per step."""
+        params = {"since": since} if since is not None else None
+        text = self._send("GET", f"/v1/sessions/{session_id}/trace", params=params).text
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+
+    def map_png(self, session_id: str) -> bytes:
+        """``GET .../map.png``: the agent's semantic map as a PNG."""
+        return self._send("GET", f"/v1/sessions/{session_id}/map.png").content
+
+    # ---- steps --------------------------------------------------------------------------------------
+
+    def step(
+        self,
+        session_id: str,
+        frame: Frame,
+        *,
+        pose: Mapping[str, float] | None = None,
+        last_action_success: bool | None = None,
+        step_index: int | None = None,
+        encoding: FrameEncoding | None = None,
+    ) -> dict[str, Any]:
+        """``POST .../step`` with one frame; returns the StepResult (action, x, y, subgoal, plan, done...)."""
+        chosen = encoding or self.encoding
+        parts = observation_parts(frame, chosen)
+        fields: dict[str, Any] = {}
+        if chosen.send_oracle:
+            fields["depth_encoding"] = chosen.depth
+            fields["segmentation_legend"] = {str(k): v for k, v in frame.legend.items()}
+        if pose is not None:
+            fields["pose"] = dict(pose)
+        if last_action_success is not None:
+            fields["last_action_success"] = last_action_success
+        if step_index is not None:
+            fields["step"] = step_index
+        path = f"/v1/sessions/{session_id}/step"
+        if chosen.transport == "multipart":
+            form = {name: _form_value(value) for name, value in fields.items()}
+            files = {name: (_file_name(name, chosen), data) for name, data in parts.items()}
+            return dict(self._send("POST", path, data=form, files=files).json())
+        body = {**fields, **{name: base64.b64encode(data).decode("ascii") for name, data in parts.items()}}
+        return dict(self._send("POST", path, json=body).json())

@@ -1,0 +1,7 @@
+"""Learned perception: HLSM's depth and segmentation U-Nets (A.3), their data, training and metrics.
+
+Modules: ``unet`` (architecture), ``depth`` (bins, expected depth, W90), ``segmentation`` (class weights,
+loss), ``instances`` (instance masks from classes and depth), ``dataset`` (frames on disk), ``augment``
+(HLSM Algorithm 2), ``network`` (checkpoint files), ``train``, ``evaluate``; ``python -m models.perception``.
+Nothing is imported here, so ``import models.perception`` stays light.
+"""

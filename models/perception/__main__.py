@@ -1,0 +1,109 @@
+"""``python -m models.perception render-data|train|evaluate``: data, training and metrics of the U-Nets.
+
+- ``render-data --out DIR [--split train|valid_unseen] [--worlds N]``: runs the harness's frame renderer
+  (``python -m harness.perception_data frames``) in a subprocess, since ``models`` never imports the harness.
+- ``train --task depth|segmentation --frames DIR --out CKPT [--valid DIR] [--steps N] ...``: trains or
+  resumes (run state in ``--run-dir``, default ``runs/perception/TASK``), exports CKPT.
+- ``evaluate --checkpoint CKPT --frames DIR [--json FILE]``: prints and writes the metrics.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+
+from models.perception.evaluate import evaluate_checkpoint, write_metrics
+from models.perception.train import TrainConfig, train
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m models.perception", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    render = sub.add_parser("render-data", help="render frames from the harness into the dataset layout")
+    render.add_argument("--out", type=Path, required=True)
+    render.add_argument("--split", choices=("train", "valid_unseen"), default="train")
+    render.add_argument("--worlds", type=int, default=500)
+    render.add_argument("--per-world", type=int, default=12)
+    render.add_argument("--size", type=int, default=256)
+    render.add_argument("--seed", type=int, default=0)
+
+    fit = sub.add_parser("train", help="train (or resume) a depth or segmentation network")
+    fit.add_argument("--task", choices=("depth", "segmentation"), required=True)
+    fit.add_argument("--frames", type=Path, required=True, help="training frames folder")
+    fit.add_argument(
+        "--valid", type=Path, default=None, help="validation frames folder (evaluated at the end)"
+    )
+    fit.add_argument("--out", type=Path, required=True, help="checkpoint directory to write")
+    fit.add_argument(
+        "--run-dir", type=Path, default=None, help="resumable state (default runs/perception/TASK)"
+    )
+    fit.add_argument("--side", type=int, default=128, help="network input side, pixels")
+    fit.add_argument("--widths", type=str, default="16,32,64,96,128", help="U-Net channels per level")
+    fit.add_argument("--bin-m", type=float, default=0.1, help="depth bin width, metres")
+    fit.add_argument("--bins", type=int, default=50, help="number of depth bins")
+    fit.add_argument("--steps", type=int, default=3000)
+    fit.add_argument("--batch", type=int, default=12)
+    fit.add_argument("--lr", type=float, default=2e-3)
+    fit.add_argument("--seed", type=int, default=0)
+    fit.add_argument("--threads", type=int, default=2)
+    fit.add_argument("--limit", type=int, default=None, help="use only the first N training frames")
+    fit.add_argument("--valid-limit", type=int, default=None)
+
+    check = sub.add_parser("evaluate", help="metrics of a checkpoint on a frames folder")
+    check.add_argument("--checkpoint", type=Path, required=True)
+    check.add_argument("--frames", type=Path, required=True)
+    check.add_argument("--eval-side", type=int, default=256)
+    check.add_argument("--limit", type=int, default=None)
+    check.add_argument("--json", type=Path, default=None, help="also write the metrics here")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command == "render-data":
+        command = [
+            sys.executable, "-m", "harness.perception_data", "frames", "--out", str(args.out),
+            "--split", args.split, "--worlds", str(args.worlds), "--per-world", str(args.per_world),
+            "--size", str(args.size), "--seed", str(args.seed),
+        ]  # fmt: skip
+        return subprocess.call(command)
+    if args.command == "train":
+        config = TrainConfig(
+            task=args.task,
+            frames=args.frames,
+            out=args.out,
+            run_dir=args.run_dir or Path("runs/perception") / args.task,
+            valid_frames=args.valid,
+            side=args.side,
+            widths=tuple(int(w) for w in args.widths.split(",")),
+            bin_m=args.bin_m,
+            bins=args.bins,
+            steps=args.steps,
+            batch=args.batch,
+            lr=args.lr,
+            seed=args.seed,
+            threads=args.threads,
+            limit=args.limit,
+            valid_limit=args.valid_limit,
+        )
+        out = train(config)
+        print(f"checkpoint written to {out}")
+        print((out / "config.json").read_text())
+        return 0
+    torch.set_num_threads(2)
+    metrics = evaluate_checkpoint(args.checkpoint, args.frames, args.eval_side, args.limit)
+    if args.json is not None:
+        write_metrics(args.json, metrics)
+    print(json.dumps(metrics, indent=1, sort_keys=True))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,171 @@
+"""A perception network as a file: the U-Net, what its outputs mean, and how it was trained.
+
+A checkpoint directory holds ``model.safetensors`` (fp16 unless trained otherwise), ``config.json`` (the
+constructor arguments, the meaning of the outputs, the run config, the data fingerprint, the step) and a
+``MODEL_CARD.md``. The loader also takes a directory whose weights are a torch state dict
+(``model.pt``/``pytorch_model.bin``) beside the same config.json, for networks trained elsewhere.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from safetensors.torch import load_file, save_file
+from torch import nn
+
+from models.perception.depth import DepthBins
+from models.perception.unet import UNet, UNetConfig
+
+Task = Literal["depth", "segmentation"]
+TASKS: tuple[Task, ...] = ("depth", "segmentation")
+WEIGHT_FILES: tuple[str, ...] = ("model.safetensors", "model.pt", "pytorch_model.bin")
+RGB_MEAN, RGB_STD = 0.5, 0.25
+"""Input normalisation of RGB in [0, 1]; instance norm after the first block absorbs the rest."""
+
+
+@dataclass(frozen=True)
+class PerceptionNetConfig:
+    """Everything needed to rebuild a network and read its outputs."""
+
+    task: Task
+    input_side: int  # pixels: frames are resized to input_side x input_side (area averaging)
+    unet: UNetConfig
+    hfov_deg: float  # horizontal field of view of the training frames, degrees
+    bins: DepthBins | None = None  # depth networks: what each output channel stands for
+    classes: tuple[str, ...] = ()  # segmentation networks: output channel -> class name (0 = Nothing)
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise ValueError(f"task must be one of {TASKS}, got {self.task!r}")
+        if self.input_side % self.unet.divisor or self.input_side < 2 * self.unet.divisor:
+            raise ValueError(
+                f"input_side {self.input_side} must be a multiple of {self.unet.divisor} and at least "
+                f"{2 * self.unet.divisor} (instance norm needs a bottleneck of 2x2 or more)"
+            )
+        if self.task == "depth" and (self.bins is None or self.bins.count != self.unet.out_channels):
+            raise ValueError(f"a depth network needs bins matching its {self.unet.out_channels} outputs")
+        if self.task == "segmentation" and len(self.classes) != self.unet.out_channels:
+            raise ValueError(f"{len(self.classes)} classes for {self.unet.out_channels} segmentation outputs")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "task": self.task,
+            "input_side": self.input_side,
+            "unet": self.unet.to_dict(),
+            "hfov_deg": self.hfov_deg,
+            "bins": None if self.bins is None else self.bins.to_dict(),
+            "classes": list(self.classes),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PerceptionNetConfig:
+        bins = data.get("bins")
+        return cls(
+            task=data["task"],
+            input_side=int(data["input_side"]),
+            unet=UNetConfig.from_dict(data["unet"]),
+            hfov_deg=float(data["hfov_deg"]),
+            bins=None if bins is None else DepthBins.from_dict(bins),
+            classes=tuple(data.get("classes", ())),
+        )
+
+
+class PerceptionNet(nn.Module):
+    """uint8 RGB batch [B, S, S, 3] -> logits [B, out, S, S]; the normalisation travels with the weights."""
+
+    def __init__(self, config: PerceptionNetConfig) -> None:
+        super().__init__()
+        self.config = config
+        self.unet = UNet(config.unet)
+
+    def forward(self, rgb: torch.Tensor) -> torch.Tensor:
+        B, H, W, C = rgb.shape
+        assert C == 3 and rgb.dtype == torch.uint8, (
+            f"rgb must be uint8 [B, H, W, 3], got {rgb.dtype} {rgb.shape}"
+        )
+        x = rgb.permute(0, 3, 1, 2).float() * (1.0 / 255.0)  # [B, 3, H, W] in [0, 1]
+        return self.unet((x - RGB_MEAN) / RGB_STD)
+
+    def forward_float(self, rgb01: torch.Tensor) -> torch.Tensor:
+        """The same on float images [B, 3, H, W] in [0, 1] (training feeds augmented floats)."""
+        return self.unet((rgb01 - RGB_MEAN) / RGB_STD)
+
+
+@dataclass
+class CheckpointInfo:
+    """What config.json records besides the network: how and on what it was trained, and how well."""
+
+    step: int = 0
+    run: dict[str, Any] = field(default_factory=dict)
+    data: dict[str, Any] = field(default_factory=dict)
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+def save_checkpoint(
+    directory: Path, model: PerceptionNet, info: CheckpointInfo, *, half: bool = True
+) -> Path:
+    """Write weights (fp16 when ``half``) and config.json into ``directory``; returns the weights file."""
+    directory.mkdir(parents=True, exist_ok=True)
+    dtype = torch.float16 if half else torch.float32
+    tensors = {k: v.detach().to(dtype).contiguous() for k, v in model.state_dict().items()}
+    weights = directory / "model.safetensors"
+    save_file(tensors, str(weights))
+    config = {
+        "network": model.config.to_dict(),
+        "dtype": str(dtype).removeprefix("torch."),
+        "step": info.step,
+        "run": info.run,
+        "data": info.data,
+        "metrics": info.metrics,
+    }
+    (directory / "config.json").write_text(json.dumps(config, indent=1))
+    return weights
+
+
+def read_info(directory: Path) -> tuple[PerceptionNetConfig, CheckpointInfo]:
+    """The network config and training record of a checkpoint directory."""
+    path = directory / "config.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{directory} has no config.json (is it a perception checkpoint?)")
+    data = json.loads(path.read_text())
+    info = CheckpointInfo(
+        step=int(data.get("step", 0)),
+        run=data.get("run", {}),
+        data=data.get("data", {}),
+        metrics=data.get("metrics", {}),
+    )
+    return PerceptionNetConfig.from_dict(data["network"]), info
+
+
+def load_checkpoint(directory: Path, *, expect: Task | None = None) -> PerceptionNet:
+    """The network of a checkpoint directory in eval mode, float32; ValueError if it is not ``expect``."""
+    config, _ = read_info(directory)
+    if expect is not None and config.task != expect:
+        raise ValueError(f"{directory} holds a {config.task} network, not a {expect} network")
+    for name in WEIGHT_FILES:
+        path = directory / name
+        if path.is_file():
+            if name.endswith(".safetensors"):
+                state = load_file(str(path))
+            else:
+                state = torch.load(path, map_location="cpu", weights_only=True)
+            break
+    else:
+        raise FileNotFoundError(f"{directory} has none of {', '.join(WEIGHT_FILES)}")
+    model = PerceptionNet(config)
+    model.load_state_dict({k: v.float() for k, v in state.items()})
+    return model.eval()
+
+
+def fingerprint(names: tuple[str, ...], arrays: list[np.ndarray]) -> str:
+    """A short hash of a dataset's frame names and first bytes, recorded so a checkpoint names its data."""
+    digest = hashlib.sha1("\n".join(names).encode())
+    for array in arrays:
+        digest.update(np.ascontiguousarray(array[:4]).tobytes())
+    return digest.hexdigest()[:16]

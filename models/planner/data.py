@@ -1,0 +1,326 @@
+"""Planner datasets built from files on disk: ALFRED trajectories, TEACh-format EDH/TfD instances, and ours.
+
+Examples pair an input text (``text.format_planner_input``) with the future subgoals in DESIGN.md §5's text
+form. Sources:
+- ALFRED (``alfred/{train,valid_seen}.jsonl.gz``): each annotation's ``task_desc``, and its ``high_descs``
+  joined as a second input style, -> the subgoals of ``plan.low_actions`` by the seed's actions-to-subgoals
+  rule (``subgoals_from_alfred_low_actions``).
+- TEACh-format instances (the real ones or those the harness writes): EDH ``dialog_history`` +
+  ``history_subgoals`` -> ``future_subgoals``; TfD the whole dialogue -> all subgoals (the seed's Eq. (2)).
+- Hand-written dialogues (``tests/data/handwritten_dialogues.jsonl``) in words the generator never uses.
+
+Every plan is parsed through the ontology so targets use canonical type names; examples whose plan names
+something outside the ontology are skipped and counted, never guessed.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import json
+from collections import Counter
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from models.planner.text import format_instruction, format_planner_input
+from symbolic.ontology import Ontology, UnknownObjectType
+from symbolic.subgoals import (
+    Subgoal,
+    SubgoalSyntaxError,
+    format_subgoals,
+    parse_subgoals,
+    subgoals_from_alfred_low_actions,
+    subgoals_from_teach_actions,
+)
+
+AlfredStyle = Literal["task_desc", "high_descs"]
+ALFRED_STYLES: tuple[AlfredStyle, ...] = ("task_desc", "high_descs")
+
+DEV_PERCENT = 3
+"""Share of training trajectories/games (by a hash of their id) held out as the dev set for the dev loss."""
+
+
+@dataclass(frozen=True)
+class PlannerExample:
+    """One input/output pair; ``origin`` says where it came from (e.g. "alfred:task_desc", "teach:edh")."""
+
+    example_id: str
+    source: str
+    target: str
+    task_type: str
+    origin: str
+
+
+@dataclass
+class BuildReport:
+    """How many examples each origin gave and how many were skipped, with a few reasons."""
+
+    kept: Counter[str] = field(default_factory=Counter)
+    skipped: Counter[str] = field(default_factory=Counter)
+    reasons: list[str] = field(default_factory=list)
+
+    def skip(self, origin: str, reason: str) -> None:
+        self.skipped[origin] += 1
+        if len(self.reasons) < 20:
+            self.reasons.append(reason)
+
+
+def is_dev(identifier: str) -> bool:
+    """Whether a training trajectory/game belongs to the held-out dev set (stable across runs)."""
+    digest = hashlib.sha256(identifier.encode("utf-8")).digest()
+    return int.from_bytes(digest[:4], "big") % 100 < DEV_PERCENT
+
+
+def canonical_plan(plan: str | Sequence[object], ontology: Ontology) -> str:
+    """A plan in §5's text form with canonical type names ("Glassbottle" -> "GlassBottle")."""
+    return format_subgoals(parse_subgoals(plan, ontology))
+
+
+def read_jsonl_gz(path: Path) -> Iterator[dict[str, Any]]:
+    with gzip.open(path, "rt", encoding="utf-8") as lines:
+        for line in lines:
+            if line.strip():
+                yield json.loads(line)
+
+
+def alfred_examples(
+    trajectories: Iterable[Mapping[str, Any]],
+    ontology: Ontology,
+    styles: Sequence[AlfredStyle] = ALFRED_STYLES,
+    report: BuildReport | None = None,
+) -> list[PlannerExample]:
+    """One example per annotation and style; the target is the same plan for every annotation of a
+    trajectory, because ALFRED's annotators described the one expert demonstration."""
+    report = report if report is not None else BuildReport()
+    examples: list[PlannerExample] = []
+    for trajectory in trajectories:
+        task_id = str(trajectory["task_id"])
+        try:
+            target = format_subgoals(subgoals_from_alfred_low_actions(trajectory["plan"]["low_actions"]))
+            target = canonical_plan(target, ontology)
+        except (SubgoalSyntaxError, UnknownObjectType) as error:
+            report.skip("alfred", f"{task_id}: {error}")
+            continue
+        for number, annotation in enumerate(trajectory["turk_annotations"]["anns"]):
+            for style in styles:
+                instruction = _alfred_instruction(annotation, style)
+                if not instruction:
+                    report.skip(f"alfred:{style}", f"{task_id} annotation {number}: empty {style}")
+                    continue
+                examples.append(
+                    PlannerExample(
+                        example_id=f"{task_id}:{number}:{style}",
+                        source=format_instruction(instruction),
+                        target=target,
+                        task_type=str(trajectory["task_type"]),
+                        origin=f"alfred:{style}",
+                    )
+                )
+                report.kept[f"alfred:{style}"] += 1
+    return examples
+
+
+def _alfred_instruction(annotation: Mapping[str, Any], style: AlfredStyle) -> str:
+    if style == "task_desc":
+        return str(annotation.get("task_desc", "")).strip()
+    return " ".join(str(step).strip() for step in annotation.get("high_descs", []) if str(step).strip())
+
+
+def teach_instance_example(
+    instance: Mapping[str, Any], instance_id: str, task_type: str, ontology: Ontology
+) -> PlannerExample:
+    """An EDH instance (history subgoals present) or a TfD instance (whole dialogue, whole plan).
+
+    The target is ``future_subgoals`` when the file has it, else the subgoals of ``driver_actions_future``.
+    Raises SubgoalSyntaxError/UnknownObjectType for a plan outside the ontology and ValueError when the file
+    holds no future at all.
+    """
+    turns = [(str(speaker), str(text)) for speaker, text in instance.get("dialog_history", [])]
+    history: list[Subgoal] = parse_subgoals(instance.get("history_subgoals") or [], ontology)
+    if instance.get("future_subgoals"):
+        future = parse_subgoals(instance["future_subgoals"], ontology)
+    elif instance.get("driver_actions_future"):
+        future = parse_subgoals(subgoals_from_teach_actions(instance["driver_actions_future"]), ontology)
+    else:
+        raise ValueError(f"{instance_id}: neither future_subgoals nor driver_actions_future")
+    kind = "edh" if ".edh" in instance_id else "tfd"
+    return PlannerExample(
+        example_id=instance_id,
+        source=format_planner_input(turns, history),
+        target=format_subgoals(future),
+        task_type=task_type,
+        origin=f"teach:{kind}",
+    )
+
+
+def teach_task_type(instance: Mapping[str, Any], root: Path, split: str, game_id: str) -> str:
+    """TEACh task name: the instance's own ``task_name`` field when present, else its game file's."""
+    for key in ("task_name", "task_type"):
+        if isinstance(instance.get(key), str) and instance[key]:
+            return str(instance[key])
+    game_path = root / "games" / split / f"{game_id}.game.json"
+    if game_path.is_file():
+        game = json.loads(game_path.read_text(encoding="utf-8"))
+        tasks = game.get("tasks") or []
+        if tasks and tasks[0].get("task_name"):
+            return str(tasks[0]["task_name"])
+    return "unknown"
+
+
+def teach_instance_files(root: Path, split: str, kinds: Sequence[str] = ("edh", "tfd")) -> list[Path]:
+    """``<root>/{edh,tfd}_instances/<split>/*.json`` in name order."""
+    paths: list[Path] = []
+    for kind in kinds:
+        paths += sorted((root / f"{kind}_instances" / split).glob("*.json"))
+    return paths
+
+
+def teach_examples(
+    root: Path,
+    split: str,
+    ontology: Ontology,
+    kinds: Sequence[str] = ("edh", "tfd"),
+    report: BuildReport | None = None,
+) -> list[PlannerExample]:
+    """Examples of every EDH/TfD instance file of ``split`` under a TEACh-format folder."""
+    report = report if report is not None else BuildReport()
+    task_types: dict[str, str] = {}
+    examples: list[PlannerExample] = []
+    for path in teach_instance_files(root, split, kinds):
+        try:
+            instance = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as error:  # e.g. a file a generator was still writing
+            report.skip("teach", f"{path.name}: not valid JSON ({error})")
+            continue
+        instance_id = str(instance.get("instance_id") or path.stem)
+        game_id = str(instance.get("game_id") or instance_id.split(".")[0])
+        if game_id not in task_types:
+            task_types[game_id] = teach_task_type(instance, root, split, game_id)
+        try:
+            example = teach_instance_example(instance, instance_id, task_types[game_id], ontology)
+        except (SubgoalSyntaxError, UnknownObjectType, ValueError) as error:
+            report.skip("teach", f"{path.name}: {error}")
+            continue
+        examples.append(example)
+        report.kept[example.origin] += 1
+    return examples
+
+
+def handwritten_examples(path: Path, ontology: Ontology) -> list[PlannerExample]:
+    """Our own dialogues: ``{"id", "task", "dialogue": [[speaker, text]...], "history_subgoals",
+    "future_subgoals"}`` per line; a plan outside the ontology is an error in the file, so it raises."""
+    examples = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.strip():
+            continue
+        record = json.loads(line)
+        history = parse_subgoals(record.get("history_subgoals") or [], ontology)
+        turns = [(str(speaker), str(text)) for speaker, text in record["dialogue"]]
+        examples.append(
+            PlannerExample(
+                example_id=str(record["id"]),
+                source=format_planner_input(turns, history),
+                target=canonical_plan(record["future_subgoals"], ontology),
+                task_type=str(record["task"]),
+                origin="handwritten",
+            )
+        )
+    return examples
+
+
+def write_examples(path: Path, examples: Iterable[PlannerExample]) -> int:
+    """One JSON object per line; returns how many were written."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    count = 0
+    with path.open("w", encoding="utf-8") as out:
+        for example in examples:
+            out.write(json.dumps(asdict(example), ensure_ascii=False) + "\n")
+            count += 1
+    return count
+
+
+def read_examples(path: Path) -> list[PlannerExample]:
+    """Examples written by ``write_examples`` (the files ``build-data`` makes)."""
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"planner dataset {path} not found; make it with `python -m models.planner build-data --out DIR`"
+        )
+    with path.open(encoding="utf-8") as lines:
+        return [PlannerExample(**json.loads(line)) for line in lines if line.strip()]
+
+
+def file_fingerprint(path: Path) -> str:
+    """sha256 of a dataset file, stored in checkpoints so a result names the data it came from."""
+    digest = hashlib.sha256()
+    with path.open("rb") as data:
+        for block in iter(lambda: data.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+@dataclass(frozen=True)
+class DatasetFiles:
+    """The files ``build_planner_datasets`` writes into one folder: training, dev, and evaluation sets."""
+
+    folder: Path
+
+    @property
+    def train(self) -> Path:
+        return self.folder / "train.jsonl"
+
+    @property
+    def dev(self) -> Path:
+        return self.folder / "dev.jsonl"
+
+    def evaluation_sets(self) -> dict[str, Path]:
+        """Evaluation set name -> file, for the sets present in the folder."""
+        return {path.stem.removeprefix("eval_"): path for path in sorted(self.folder.glob("eval_*.jsonl"))}
+
+    def evaluation_path(self, name: str) -> Path:
+        return self.folder / f"eval_{name}.jsonl"
+
+
+def build_planner_datasets(
+    data_dir: Path | None,
+    teach_root: Path | None,
+    out: DatasetFiles,
+    ontology: Ontology,
+    teach_repeat: int = 1,
+) -> BuildReport:
+    """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it) and TEACh-format instances
+    (when ``teach_root`` is given). Valid splits never enter training; ``teach_repeat`` repeats the TEACh
+    training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions."""
+    report = BuildReport()
+    train: list[PlannerExample] = []
+    dev: list[PlannerExample] = []
+    evaluation: dict[str, list[PlannerExample]] = {}
+    alfred = data_dir / "alfred" if data_dir is not None else None
+    if alfred is not None and (alfred / "train.jsonl.gz").is_file():
+        for example in alfred_examples(read_jsonl_gz(alfred / "train.jsonl.gz"), ontology, report=report):
+            (dev if is_dev(example.example_id.split(":")[0]) else train).append(example)
+        if (alfred / "valid_seen.jsonl.gz").is_file():
+            seen = alfred_examples(read_jsonl_gz(alfred / "valid_seen.jsonl.gz"), ontology, report=report)
+            for style in ALFRED_STYLES:
+                evaluation[f"alfred_valid_seen_{style}"] = [e for e in seen if e.origin == f"alfred:{style}"]
+    if teach_root is not None:
+        for example in teach_examples(teach_root, "train", ontology, report=report):
+            if is_dev(example.example_id.split(".")[0]):
+                dev.append(example)
+            else:
+                train += [example] * teach_repeat
+        for split in ("valid_seen", "valid_unseen"):
+            for kind in ("edh", "tfd"):
+                examples = teach_examples(teach_root, split, ontology, kinds=(kind,), report=report)
+                if examples:
+                    evaluation[f"teach_{split}_{kind}"] = examples
+    if not train:
+        raise FileNotFoundError(
+            f"no training data: ALFRED not found under {data_dir} and no TEACh instances under {teach_root}"
+        )
+    write_examples(out.train, train)
+    write_examples(out.dev, dev)
+    for name, examples in evaluation.items():
+        write_examples(out.evaluation_path(name), examples)
+    return report

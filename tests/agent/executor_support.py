@@ -1,0 +1,98 @@
+"""Driving the real agent with the real harness: a generated kitchen rendered by the Simulator, each frame
+sent to the service (over FastAPI's TestClient) or to an AgentSession, each returned action executed."""
+
+from __future__ import annotations
+
+import base64
+from dataclasses import dataclass, field
+from typing import Any
+
+from fastapi.testclient import TestClient
+
+from agent.geometry import Pose
+from agent.perception import Observation
+from harness.camera import CameraSpec
+from harness.client import FrameEncoding, observation_parts, pose_of
+from harness.render import Frame
+from harness.simulator import ActionResult, Simulator
+from harness.world import AgentState, World
+from harness.worldgen import generate_kitchen
+from symbolic.thor import OBJECT_ACTIONS
+
+CAMERA = {"width": 300, "height": 300, "hfov_deg": 90.0}
+"""300x300 frames keep an episode to seconds; TEACh's own are 900x900."""
+KITCHEN_SEED = 2
+"""A generated kitchen whose only Apple, Bread and Knife all lie in the open (not in a closed container)."""
+
+
+def kitchen() -> World:
+    return generate_kitchen(KITCHEN_SEED, require=(("Apple", 1), ("Bread", 1), ("Knife", 1)))
+
+
+def simulator(world: World) -> Simulator:
+    return Simulator(world, CameraSpec(CAMERA["width"], CAMERA["height"], CAMERA["hfov_deg"]))
+
+
+def step_body(frame: Frame, agent: AgentState | None, step: int | None) -> dict[str, Any]:
+    """A JSON StepRequest for a frame, encoded as the harness client encodes it."""
+    parts = observation_parts(frame, FrameEncoding())
+    body: dict[str, Any] = {name: base64.b64encode(data).decode() for name, data in parts.items()}
+    body["segmentation_legend"] = {str(k): v for k, v in frame.legend.items()}
+    if agent is not None:
+        body["pose"] = pose_of(agent)
+    if step is not None:
+        body["step"] = step
+    return body
+
+
+def observation(frame: Frame, agent: AgentState | None) -> Observation:
+    """The decoded observation the service would build from ``step_body`` (no PNG round trip)."""
+    pose = None
+    if agent is not None:
+        pose = Pose(agent.x, agent.z, float(agent.yaw % 360), float(agent.horizon))
+    return Observation(
+        rgb=frame.rgb, depth=frame.depth, instances=frame.instances, legend=dict(frame.legend), pose=pose
+    )
+
+
+def execute(sim: Simulator, action: str, x: float | None, y: float | None) -> ActionResult:
+    return sim.step(action, x, y) if action in OBJECT_ACTIONS else sim.step(action)
+
+
+@dataclass
+class Drive:
+    """One driven episode: the session, every answer and what the simulator made of each action."""
+
+    session_id: str
+    sim: Simulator
+    answers: list[dict[str, Any]] = field(default_factory=list)
+    results: list[ActionResult] = field(default_factory=list)
+
+    @property
+    def last(self) -> dict[str, Any]:
+        return self.answers[-1]
+
+    def failed(self) -> int:
+        return sum(1 for r in self.results if not r.success)
+
+
+def drive(
+    client: TestClient, world: World, subgoals: str, *, max_steps: int = 400, give_pose: bool = True
+) -> Drive:
+    """Create a TfD session with oracle subgoals and run it until the agent says done (or max_steps)."""
+    created = client.post(
+        "/v1/sessions", json={"mode": "tfd", "camera": CAMERA, "subgoals": subgoals, "seed": 0}
+    )
+    assert created.status_code == 201, created.text
+    run = Drive(session_id=created.json()["session_id"], sim=simulator(world))
+    for step in range(max_steps):
+        frame = run.sim.observe(noise_seed=step)
+        agent = run.sim.world.agent if give_pose else None
+        response = client.post(f"/v1/sessions/{run.session_id}/step", json=step_body(frame, agent, step))
+        assert response.status_code == 200, response.text
+        answer = response.json()
+        run.answers.append(answer)
+        if answer["done"]:
+            break
+        run.results.append(execute(run.sim, answer["action"], answer["x"], answer["y"]))
+    return run

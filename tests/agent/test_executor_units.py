@@ -1,0 +1,328 @@
+"""The executor's parts with exact answers: click points, success inference, history poses, alignment."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from executor_support import kitchen, observation, simulator
+
+from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
+from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
+from agent.executor.looks import StainConfig, looks, stained_share
+from agent.executor.replay import holding_before
+from agent.executor.success import instance_colour
+from agent.geometry import Camera, Pose
+from agent.perception import Observation
+from agent.session import FrameAlignment
+from harness.simulator import Simulator
+from harness.world import WorldObject
+
+CONFIG = ClickConfig()
+STAIN = StainConfig()
+
+# ----- click points -------------------------------------------------------------------------------------
+
+
+def test_a_disc_is_clicked_at_its_centre() -> None:
+    rows, cols = np.mgrid[0:60, 0:80]
+    mask = (rows - 30) ** 2 + (cols - 50) ** 2 <= 10**2
+
+    assert interior_pixel(mask, CONFIG) == (30, 50)
+
+
+def test_an_l_shaped_mask_is_clicked_inside_well_away_from_its_edge() -> None:
+    """The centroid of an L lies outside it; the click must not (TEACh would resolve the wrong object)."""
+    mask = np.zeros((100, 100), dtype=bool)
+    mask[10:90, 10:30] = True  # vertical bar
+    mask[70:90, 10:90] = True  # horizontal bar
+    all_rows, all_cols = np.nonzero(mask)
+    centroid = (all_rows.mean(), all_cols.mean())
+    assert not mask[round(centroid[0]), round(centroid[1])]
+
+    row, col = interior_pixel(mask, CONFIG)
+
+    assert mask[row, col]
+    inner = min(row - 10, 89 - row, col - 10) if col < 30 else min(row - 70, 89 - row, 89 - col)
+    assert inner >= CONFIG.interior_cap_px - 1
+    assert math.dist((row, col), centroid) < 25
+
+
+def test_an_empty_mask_has_no_click() -> None:
+    assert interior_pixel(np.zeros((10, 10), dtype=bool), CONFIG) is None
+
+
+def test_rendered_objects_are_clicked_inside_their_mask_near_the_centroid_and_within_reach() -> None:
+    world = kitchen()
+    sim = simulator(world)
+    camera = Camera(300, 300, 90.0)
+    clicked = 0
+    for turn in range(8):
+        sim.step("Turn Left")
+        if turn % 4 == 0:
+            sim.step("Look Down")  # 30° then 60° down: counters and what lies on them come within reach
+        frame = sim.observe()
+        obs = observation(frame, sim.world.agent)
+        assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+        distances = pixel_distances(obs.depth, camera)
+        usable = usable_pixels(distances, False, CONFIG)
+        for object_type in sorted(set(frame.legend.values()) - {"Floor", "Wall", "Ceiling"}):
+            mask = np.isin(obs.instances, [i for i, t in frame.legend.items() if t == object_type])
+            for instance in visible_instances(
+                mask, obs.instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
+            ):
+                click = choose_click(
+                    instance, obs.instances, distances, usable, obs.depth, camera, obs.pose, "object", CONFIG
+                )
+                if click is None:
+                    assert not instance.clickable
+                    continue
+                own = obs.instances == instance.instance_id
+                rows, cols = np.nonzero(own & (distances <= CONFIG.reach_m))
+                assert own[click.row, click.col], (object_type, click)
+                assert distances[click.row, click.col] <= CONFIG.reach_m
+                assert (click.x, click.y) == (click.col / 300, click.row / 300)
+                spread = max(np.ptp(rows), np.ptp(cols)) + 1
+                assert math.dist((click.row, click.col), (rows.mean(), cols.mean())) <= spread / 2 + 1
+                clicked += 1
+    assert clicked >= 5
+
+
+def _stand_facing(sim: Simulator, target: WorldObject) -> None:
+    """Put the agent on the reachable cell nearest the target, turned toward it, looking 30° down."""
+    world = sim.world
+    reachable = np.argwhere(sim.reachable())  # [N, 2] cells
+    centres = [world.room.cell_center(int(i), int(j)) for i, j in reachable]
+    x, z = min(centres, key=lambda c: math.dist(c, (target.center[0], target.center[2])))
+    bearing = math.degrees(math.atan2(target.center[0] - x, target.center[2] - z))
+    world.agent.x, world.agent.z = x, z
+    world.agent.yaw, world.agent.horizon = int(round(bearing / 90.0)) * 90 % 360, 30.0
+
+
+def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
+    world = kitchen()
+    sim = simulator(world)
+    camera = Camera(300, 300, 90.0)
+    counter = world.of_type("CounterTop")[0]
+    _stand_facing(sim, counter)
+    frame = sim.observe()
+    obs = observation(frame, sim.world.agent)
+    assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    distances = pixel_distances(obs.depth, camera)
+    usable = usable_pixels(distances, False, CONFIG)
+    counter_id = world.instance_ids[counter.object_id]
+    (seen,) = visible_instances(
+        obs.instances == counter_id, obs.instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
+    )
+
+    click = choose_click(
+        seen, obs.instances, distances, usable, obs.depth, camera, obs.pose, "surface", CONFIG
+    )
+
+    assert click is not None and click.instance_id == counter_id
+    assert abs(click.point[1] - counter.top) < 0.02, (click.point, counter.top)
+    assert distances[click.row, click.col] <= CONFIG.reach_m
+
+
+# ----- success inference --------------------------------------------------------------------------------
+
+SUCCESS = SuccessConfig()
+
+
+def _digests(before: Observation, after: Observation) -> tuple:
+    return digest(before, SUCCESS), digest(after, SUCCESS)
+
+
+def test_the_callers_verdict_wins() -> None:
+    obs = Observation(rgb=np.zeros((8, 8, 3), np.uint8))
+    before, after = _digests(obs, obs)
+
+    verdict = infer_success("Pickup", before, after, reported=True, poses=None, colours=None, config=SUCCESS)
+
+    assert verdict.success is True and verdict.evidence == "reported by the caller"
+
+
+@pytest.mark.parametrize(
+    ("action", "after", "expected"),
+    [
+        ("Forward", Pose(1.0, 2.25, 0.0, 30.0), True),
+        ("Forward", Pose(1.0, 2.0, 0.0, 30.0), False),
+        ("Turn Left", Pose(1.0, 2.0, 270.0, 30.0), True),
+        ("Turn Left", Pose(1.0, 2.0, 0.0, 30.0), False),
+        ("Look Down", Pose(1.0, 2.0, 0.0, 60.0), True),
+        ("Look Down", Pose(1.0, 2.0, 0.0, 30.0), False),
+    ],
+)
+def test_motion_success_is_read_from_the_callers_poses(action: str, after: Pose, expected: bool) -> None:
+    obs = Observation(rgb=np.zeros((8, 8, 3), np.uint8))
+    before_digest, after_digest = _digests(obs, obs)
+
+    verdict = infer_success(
+        action,
+        before_digest,
+        after_digest,
+        reported=None,
+        poses=(Pose(1.0, 2.0, 0.0, 30.0), after),
+        colours=None,
+        config=SUCCESS,
+    )
+
+    assert verdict.success is expected
+
+
+def test_geometry_decides_for_object_actions_and_for_motion_without_poses() -> None:
+    world = kitchen()
+    sim = simulator(world)
+    first = observation(sim.observe(noise_seed=1), None)
+    same = observation(sim.observe(noise_seed=2), None)  # same world, other light noise
+    sim.step("Turn Left")
+    turned = observation(sim.observe(noise_seed=3), None)
+
+    failed = infer_success(
+        "Pickup", *_digests(first, same), reported=None, poses=None, colours=None, config=SUCCESS
+    )
+    moved = infer_success(
+        "Turn Left", *_digests(first, turned), reported=None, poses=None, colours=None, config=SUCCESS
+    )
+
+    assert (failed.success, failed.evidence) == (False, "depth/segmentation unchanged")
+    assert (moved.success, moved.evidence) == (True, "depth/segmentation changed")
+
+
+def test_with_rgb_only_light_noise_is_no_change_and_a_turn_is() -> None:
+    world = kitchen()
+    sim = simulator(world)
+    first = sim.observe(noise_seed=1)
+    same = sim.observe(noise_seed=2)
+    sim.step("Turn Right")
+    turned = sim.observe(noise_seed=3)
+    rgb_only = [Observation(rgb=f.rgb) for f in (first, same, turned)]
+
+    still = infer_success(
+        "Forward",
+        *_digests(rgb_only[0], rgb_only[1]),
+        reported=None,
+        poses=None,
+        colours=None,
+        config=SUCCESS,
+    )
+    moved = infer_success(
+        "Turn Right",
+        *_digests(rgb_only[0], rgb_only[2]),
+        reported=None,
+        poses=None,
+        colours=None,
+        config=SUCCESS,
+    )
+
+    assert still.success is False
+    assert moved.success is True
+
+
+def test_a_toggle_that_changes_no_geometry_is_seen_in_the_objects_colour() -> None:
+    """Switching a coffee machine on changes no depth or segmentation pixel, only how it looks."""
+    world = kitchen()
+    sim = simulator(world)
+    (machine,) = world.of_type("CoffeeMachine")
+    machine_id = world.instance_ids[machine.object_id]
+    for _ in range(4):
+        frame = sim.observe(noise_seed=5)
+        if (frame.instances == machine_id).sum() > 50:
+            break
+        sim.step("Turn Left")
+    else:
+        pytest.fail("the coffee machine is not in view from the start position")
+    before = observation(frame, None)
+    machine.is_toggled = True  # what ToggleOn does, without needing the machine within reach
+    after = observation(sim.renderer.render(sim.world, noise_seed=6), None)
+    before_digest, after_digest = _digests(before, after)
+    colours = (
+        instance_colour(before, before_digest, machine_id),
+        instance_colour(after, after_digest, machine_id),
+    )
+    assert colours[0] is not None and colours[1] is not None
+
+    verdict = infer_success(
+        "ToggleOn", before_digest, after_digest, reported=None, poses=None, colours=colours, config=SUCCESS
+    )
+    unchanged = infer_success(
+        "ToggleOn", before_digest, before_digest, reported=None, poses=None, colours=None, config=SUCCESS
+    )
+
+    assert before_digest.geometry == after_digest.geometry
+    assert verdict.success is True and "colour" in verdict.evidence
+    assert unchanged.success is False
+
+
+# ----- EDH history replay and frames --------------------------------------------------------------------
+
+
+def test_history_poses_dead_reckon_every_motion_from_the_start() -> None:
+    actions = ["Forward", "Turn Right", "Forward", "Look Down", "Pickup", "Pan Left", "Text", "Backward"]
+
+    poses = history_poses(actions, Pose(0.0, 0.0, 0.0, 0.0), 30.0)
+
+    expected = [
+        (0.0, 0.0, 0.0, 0.0),
+        (0.0, 0.25, 0.0, 0.0),
+        (0.0, 0.25, 90.0, 0.0),
+        (0.25, 0.25, 90.0, 0.0),
+        (0.25, 0.25, 90.0, 30.0),
+        (0.25, 0.25, 90.0, 30.0),
+        (0.25, 0.5, 90.0, 30.0),  # Pan Left at yaw 90 steps toward +z
+        (0.25, 0.5, 90.0, 30.0),
+        (0.0, 0.5, 90.0, 30.0),
+    ]
+    got = [(round(p.x, 6), round(p.z, 6), p.yaw, p.horizon) for p in poses]
+    assert got == expected
+
+
+def test_the_hand_is_full_between_a_pickup_and_the_next_place() -> None:
+    assert holding_before(["Forward", "Pickup", "Forward", "Place", "Forward"]) == [
+        False,
+        False,
+        True,
+        True,
+        False,
+    ]
+
+
+@pytest.mark.parametrize("turn", [0.0, 90.0, 180.0, 270.0])
+def test_a_frame_alignment_maps_the_world_pose_onto_the_dead_reckoned_one_and_keeps_moves_rigid(
+    turn: float,
+) -> None:
+    world = Pose(2.25, -1.0, turn, 30.0)
+    alignment = FrameAlignment.between(world, Pose(0.5, 0.75, 0.0, 30.0))
+
+    here = alignment.to_map(world)
+    ahead = alignment.to_map(world.apply_motion("Forward", True))
+
+    assert (round(here.x, 9), round(here.z, 9), here.yaw, here.horizon) == (0.5, 0.75, 0.0, 30.0)
+    assert (round(ahead.x, 9), round(ahead.z, 9), ahead.yaw) == (0.5, 1.0, 0.0)  # yaw 0 moves along +z
+
+
+# ----- the stain cue ------------------------------------------------------------------------------------
+
+
+def test_dirty_dishes_look_dirty_and_clean_ones_clean() -> None:
+    """The same mugs, bowls and plates rendered clean and then dirty (harness.appearance's brown stains)."""
+    world = kitchen()
+    sim = simulator(world)
+    dishes = {o.object_id for o in world.objects.values() if o.object_type in ("Mug", "Bowl", "Plate", "Cup")}
+    verdicts: dict[bool, list[str]] = {False: [], True: []}
+    for turn in range(4):
+        sim.step("Turn Left")
+        for dirty in (False, True):
+            for object_id in dishes:
+                world.objects[object_id].is_dirty = dirty
+            frame = sim.renderer.render(world, noise_seed=turn)
+            for object_id in dishes:
+                mask = frame.instances == world.instance_ids[object_id]
+                assert frame.rgb is not None
+                verdicts[dirty].append(looks(stained_share(frame.rgb, mask, STAIN), STAIN))
+    seen_clean = [v for v in verdicts[False] if v != "unknown"]
+    seen_dirty = [v for v in verdicts[True] if v != "unknown"]
+    assert seen_clean and seen_dirty
+    assert set(seen_clean) == {"clean"}
+    assert set(seen_dirty) == {"dirty"}

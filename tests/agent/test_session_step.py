@@ -1,0 +1,142 @@
+"""One session's step loop without HTTP: state budget and snapshots, refusals, limits, the end of the plan,
+and EDH history replayed into the map."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from executor_support import execute, kitchen, observation, simulator
+
+from agent.executor import HistoryStep
+from agent.geometry import Camera, Pose
+from agent.perception import ObservationError
+from agent.planning import make_planner
+from agent.session import AgentSession, Mode, SessionLimits
+from symbolic.ontology import load_ontology
+
+CAMERA = Camera(300, 300, 90.0)
+STATE_BUDGET_BYTES = 2_000_000  # DESIGN.md §8
+
+
+def _session(subgoals: str, mode: Mode = "tfd", **extra: object) -> AgentSession:
+    ontology = load_ontology()
+    return AgentSession.start(
+        "s",
+        mode=mode,
+        camera=CAMERA,
+        perception="oracle",
+        navigator="fmm",
+        planner=make_planner("oracle", ontology),
+        given_subgoals=subgoals,
+        ontology=ontology,
+        **extra,  # type: ignore[arg-type]
+    )
+
+
+def test_state_stays_within_budget_and_a_snapshot_resumes_with_the_same_decision() -> None:
+    sim = simulator(kitchen())
+    session = _session("Navigate Fridge, Open Fridge, Close Fridge, Navigate Toaster, ToggleOn Toaster")
+    for step in range(60):
+        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
+        if decision.done:
+            break
+        execute(sim, decision.action, decision.x, decision.y)
+    snapshot = session.to_bytes()
+    restored = AgentSession.from_bytes(snapshot)
+    upcoming = observation(sim.observe(noise_seed=99), sim.world.agent)
+
+    assert session.state_bytes() <= STATE_BUDGET_BYTES
+    assert len(snapshot) <= STATE_BUDGET_BYTES
+    assert (
+        restored.step == session.step
+        and restored.plan == session.plan
+        and restored.pointer == session.pointer
+    )
+    assert restored.step_once(upcoming) == session.step_once(upcoming)
+
+
+def test_an_observation_perception_cannot_use_changes_nothing() -> None:
+    sim = simulator(kitchen())
+    session = _session("Navigate Apple")
+    session.step_once(observation(sim.observe(), sim.world.agent))
+    before = (session.step, len(session.trace), session.pose, session.last_digest, session.semantic_map.steps)
+
+    with pytest.raises(ObservationError) as refused:
+        session.step_once(replace(observation(sim.observe(), sim.world.agent), depth=None))
+
+    assert refused.value.field == "depth"
+    after = (session.step, len(session.trace), session.pose, session.last_digest, session.semantic_map.steps)
+    assert after == before
+
+
+def test_the_step_limit_ends_the_episode_with_stop() -> None:
+    sim = simulator(kitchen())
+    session = _session("Navigate Apple, Pickup Apple", limits=SessionLimits(max_steps=3))
+    answers = []
+    for step in range(4):
+        answers.append(session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent)))
+        if answers[-1].done:
+            break
+        execute(sim, answers[-1].action, answers[-1].x, answers[-1].y)
+
+    assert [a.done for a in answers] == [False, False, False, True]
+    assert answers[-1].action == "Stop" and "step limit" in answers[-1].reason
+
+
+def test_a_finished_plan_stops_and_a_tatc_follower_asks_for_more() -> None:
+    sim = simulator(kitchen())
+    frame = observation(sim.observe(), sim.world.agent)
+    tfd, tatc = _session("Navigate Floor"), _session("Navigate Floor", mode="tatc")  # Floor: at hand at once
+
+    by_tfd, by_tatc = tfd.step_once(frame), tatc.step_once(frame)
+    after_end = tfd.step_once(frame)
+
+    assert (by_tfd.action, by_tfd.done, by_tfd.utterance) == ("Stop", True, None)
+    assert (by_tatc.action, by_tatc.utterance) == ("Stop", "What should I do next?")
+    assert by_tatc.done  # the oracle planner cannot take new instructions, so the episode ends
+    assert (after_end.action, after_end.done, after_end.step) == ("Stop", True, 1)
+
+
+def _history(sim_actions: list[str]) -> tuple[list[HistoryStep], Pose, object]:
+    """History steps (frame before each action) of a driver acting in the kitchen, and where it ends."""
+    sim = simulator(kitchen())
+    start = sim.world.agent
+    start_pose = Pose(start.x, start.z, float(start.yaw), float(start.horizon))
+    steps = []
+    for action in sim_actions:
+        steps.append(HistoryStep(action, observation(sim.observe(), None)))
+        assert execute(sim, action, None, None).success, action
+    return steps, start_pose, sim
+
+
+def test_edh_history_frames_are_mapped_before_the_first_step() -> None:
+    steps, start_pose, sim = _history(["Turn Left", "Turn Left", "Turn Left", "Look Down"])
+
+    session = _session("Navigate Apple", mode="edh", history=steps, history_start=start_pose)
+
+    agent = sim.world.agent  # type: ignore[attr-defined]
+    assert session.semantic_map is not None and session.semantic_map.steps == len(steps)
+    assert session.pose == Pose(agent.x, agent.z, float(agent.yaw), float(agent.horizon))
+    seen = set().union(*(set(step.observation.legend.values()) for step in steps if step.observation))
+    mapped = set(session.semantic_map.types_present())
+    assert (seen - {"Ceiling"}) & mapped
+    assert "CounterTop" in mapped
+
+
+def test_without_a_start_pose_history_and_live_frames_land_in_one_frame() -> None:
+    """The history is dead-reckoned from the agent's own origin; the first world pose aligns the rest."""
+    steps, _, sim = _history(["Turn Right", "Look Down"])
+    session = _session("Navigate CounterTop", mode="edh", history=steps)
+    counters_before = session.semantic_map.presence("CounterTop").copy()  # type: ignore[union-attr]
+
+    frame = sim.observe()  # type: ignore[attr-defined]
+    session.step_once(observation(frame, sim.world.agent))  # type: ignore[attr-defined]
+
+    assert session.alignment is not None and session.alignment.yaw_deg % 90 == 0
+    counters_after = session.semantic_map.presence("CounterTop")  # type: ignore[union-attr]
+    assert counters_before.any()
+    overlap = (counters_before & counters_after).sum() / counters_before.sum()
+    assert overlap > 0.9  # the live frame sees the counters where the history put them
+    assert np.isclose(session.pose.x, 0.0) and np.isclose(session.pose.z, 0.0)  # type: ignore[union-attr]

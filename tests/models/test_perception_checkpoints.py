@@ -1,0 +1,91 @@
+"""The shipped checkpoints: present, documented, small, and useful on worlds they were not trained on."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+import models
+from agent.geometry import Camera
+from agent.perception import OraclePerception, make_perception
+from agent.perception.base import Observation
+from harness.camera import CameraSpec
+from harness.navgrid import reachable_grid
+from harness.render import Renderer
+from harness.splits import world_seed
+from harness.worldgen import WorldGenConfig, generate_world
+from models.goal_transformer.model import load_goal_transformer
+
+CHECKPOINTS = Path(models.__file__).resolve().parent / "checkpoints"
+NAMES = ("depth", "segmentation", "goal_transformer")
+BUDGET_BYTES = 20 * 2**20  # the issue: these three together well under the 60 MB of all checkpoints
+CARD_SECTIONS = ("## Data", "## Command", "## Metrics", "## Size")
+
+
+def test_checkpoints_have_weights_config_and_a_model_card_and_fit_the_budget():
+    total = 0
+    for name in NAMES:
+        directory = CHECKPOINTS / name
+        config = json.loads((directory / "config.json").read_text())
+        assert config["dtype"] == "float16"
+        card = (directory / "MODEL_CARD.md").read_text()
+        missing = [s for s in CARD_SECTIONS if s not in card]
+        assert not missing, f"{name}/MODEL_CARD.md lacks {missing}"
+        total += sum(path.stat().st_size for path in directory.iterdir())
+    assert total <= BUDGET_BYTES, f"checkpoints take {total / 2**20:.1f} MiB"
+
+
+def _unseen_frames(side: int, count: int) -> list:
+    renderer = Renderer(CameraSpec(side, side, 90.0))
+    rng = np.random.default_rng(3)
+    frames = []
+    for i in range(count):
+        world = generate_world(
+            WorldGenConfig(("kitchen", "bedroom")[i % 2], world_seed("valid_unseen", 500 + i))
+        )
+        cells = np.argwhere(reachable_grid(world))
+        world.agent.x, world.agent.z = world.room.cell_center(
+            *(int(v) for v in cells[rng.integers(len(cells))])
+        )
+        world.agent.yaw, world.agent.horizon = int(rng.integers(4)) * 90, 30.0
+        frames.append(renderer.render(world, noise_seed=i))
+    return frames
+
+
+def test_learned_perception_beats_blind_guesses_in_unseen_worlds():
+    """Depth closer than the best constant depth, classes righter than always answering the commonest one.
+
+    The shipped networks are under-trained (see their model cards), so this is the floor they must clear,
+    not the issue's bars (bench/perception_quality.py reports those).
+    """
+    camera = Camera(300, 300, 90.0)
+    learned, oracle = make_perception("learned", camera), OraclePerception(camera)
+    errors, constant_errors, agree, commonest, pixels = [], [], 0, 0, 0
+    for frame in _unseen_frames(300, 4):
+        obs = Observation(depth=frame.depth, instances=frame.instances, legend=frame.legend)
+        truth = oracle.perceive(obs, target_type=None)
+        percept = learned.perceive(Observation(rgb=frame.rgb), target_type=None)
+        valid = frame.depth > 0
+        true_depth = frame.depth[valid]
+        errors.append(np.abs(percept.depth[valid] - true_depth) / true_depth)
+        constant_errors.append(np.abs(np.median(true_depth) - true_depth) / true_depth)
+        agree += int((percept.class_ids == truth.class_ids).sum())
+        commonest += int(np.bincount(truth.class_ids.reshape(-1)).max())
+        pixels += truth.class_ids.size
+    abs_rel, constant = (
+        float(np.mean(np.concatenate(errors))),
+        float(np.mean(np.concatenate(constant_errors))),
+    )
+    assert abs_rel < constant, f"depth abs rel {abs_rel:.3f} vs {constant:.3f} for the median depth"
+    assert agree > commonest, (
+        f"{agree / pixels:.3f} of classes right vs {commonest / pixels:.3f} for one class"
+    )
+
+
+def test_goal_transformer_checkpoint_rebuilds_with_its_vocabulary():
+    model = load_goal_transformer(CHECKPOINTS / "goal_transformer")
+    assert "Navigate" in model.config.subgoal_actions and "Mug" in model.config.object_types
+    record = json.loads((CHECKPOINTS / "goal_transformer" / "config.json").read_text())
+    assert record["metrics"]["step_accuracy"] > record["metrics"]["majority_baseline"]

@@ -1,0 +1,151 @@
+"""The perception networks' parts: U-Net shapes, depth bins, AUGMENT, the frame folder reader, metrics."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from models.perception.augment import AugmentConfig, augment, augment_example, variable_appearance_classes
+from models.perception.dataset import IGNORE_LABEL, frame_names, load_frames, ontology_classes
+from models.perception.depth import DepthBins, depth_loss, expected_depth, interval_width_90
+from models.perception.evaluate import confusion_matrix, depth_metrics, segmentation_metrics
+from models.perception.unet import UNet, UNetConfig
+from symbolic.ontology import load_ontology
+
+
+def test_unet_keeps_the_image_size_and_has_five_levels_each_way():
+    net = UNet(UNetConfig(in_channels=3, out_channels=7, widths=(8, 8, 8, 8, 8)))
+    out = net(torch.rand(2, 3, 64, 96))
+    assert out.shape == (2, 7, 64, 96)
+    assert len(net.down) == 5 and len(net.up) == 5
+
+
+def test_unet_refuses_a_side_that_five_halvings_cannot_divide():
+    net = UNet(UNetConfig(3, 4, (4, 4, 4, 4, 4)))
+    with pytest.raises(AssertionError, match="multiple of 32"):
+        net(torch.rand(1, 3, 48, 64))
+
+
+def test_depth_bins_round_to_the_nearest_bin_and_clamp_far_depths_to_the_last():
+    bins = DepthBins(0.1, 50)
+    depths = torch.tensor([0.0, 0.04, 0.06, 1.23, 4.9, 7.5])
+    assert bins.index_of(depths).tolist() == [0, 0, 1, 12, 49, 49]
+    assert bins.max_m == pytest.approx(4.9)
+
+
+def test_expected_depth_and_interval_width_of_exact_distributions():
+    bins = DepthBins(0.1, 50)
+    probs = torch.zeros(1, 50, 1, 3)
+    probs[0, 20, 0, 0] = 1.0  # all mass at 2.0 m
+    probs[0, 10, 0, 1] = probs[0, 30, 0, 1] = 0.5  # half at 1.0 m, half at 3.0 m
+    probs[0, :, 0, 2] = 1.0 / 50  # uniform over 0 .. 4.9 m
+    mean = expected_depth(probs, bins)[0, 0]
+    width = interval_width_90(probs, bins)[0, 0]
+    assert mean.tolist() == pytest.approx([2.0, 2.0, 2.45])
+    assert width[0] == 0.0
+    assert width[1] == pytest.approx(2.0)  # 5% quantile at 1.0 m, 95% at 3.0 m
+    assert width[2] == pytest.approx(4.5)  # bins 2 (cdf 0.06) .. 47 (cdf 0.96)
+
+
+def test_depth_loss_ignores_pixels_without_a_reading():
+    bins = DepthBins(0.1, 50)
+    depth = torch.tensor([[[1.0, 0.0]]])  # [1, 1, 2]: second pixel has no reading
+    logits = torch.full((1, 50, 1, 2), -30.0)
+    logits[0, 10, 0, 0] = 30.0  # confident and right on the valid pixel
+    logits[0, 40, 0, 1] = 30.0  # confidently "wrong" where there is nothing to be right about
+    assert float(depth_loss(logits, depth, bins)) < 1e-6
+
+
+def test_augment_recolours_variable_classes_and_leaves_food_alone():
+    ontology = load_ontology()
+    classes = ontology_classes(ontology)
+    varies = variable_appearance_classes(classes, ontology)
+    cabinet, apple = classes.index("Cabinet"), classes.index("Apple")
+    assert varies[cabinet] and not varies[apple]
+    labels = np.full((16, 16), cabinet, dtype=np.uint8)
+    labels[:, 8:] = apple
+    rgb = np.full((16, 16, 3), 0.5, dtype=np.float32)
+    config = AugmentConfig(sigma_add=0.3, sigma_noise=0.05, sigma_gain=0.3)
+    changed = 0
+    for seed in range(16):
+        out = augment(rgb, labels, varies, np.random.default_rng(seed), config)
+        assert np.array_equal(out[:, 8:], rgb[:, 8:]), "apple pixels must keep their colour"
+        assert out.min() >= 0.0 and out.max() <= 1.0
+        changed += int(not np.allclose(out[:, :8], rgb[:, :8]))
+    assert changed >= 10  # no recolouring at all has probability 1/8 per image
+
+
+def test_flip_mirrors_image_depth_and_labels_together():
+    rgb = np.zeros((4, 6, 3), dtype=np.float32)
+    rgb[:, 0] = 1.0
+    depth = np.tile(np.arange(6, dtype=np.float32), (4, 1))
+    labels = np.tile(np.arange(6, dtype=np.uint8), (4, 1))
+    config = AugmentConfig(augment_prob=0.0, flip_prob=1.0)
+    out_rgb, out_depth, out_labels = augment_example(
+        rgb, depth, labels, np.zeros(10, bool), np.random.default_rng(0), config
+    )
+    assert out_rgb[0, 5, 0] == 1.0 and out_rgb[0, 0, 0] == 0.0
+    assert out_depth[0].tolist() == [5, 4, 3, 2, 1, 0]
+    assert out_labels[0].tolist() == [5, 4, 3, 2, 1, 0]
+
+
+def _write_user_frame(root: Path, name: str, *, depth_as_npy: bool = False) -> None:
+    """A 32x32 frame in the documented layout: left half a Mug (id 7), right half a type nobody knows."""
+    for folder in ("rgb", "depth", "instances"):
+        (root / folder).mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(root / "rgb" / f"{name}.png"), np.full((32, 32, 3), 120, dtype=np.uint8))
+    depth_m = np.full((32, 32), 1.5, dtype=np.float32)
+    depth_m[0, 0] = 0.0
+    if depth_as_npy:
+        np.save(root / "depth" / f"{name}.npy", depth_m)
+    else:
+        cv2.imwrite(str(root / "depth" / f"{name}.png"), (depth_m * 1000).astype(np.uint16))
+    ids = np.zeros((32, 32), dtype=np.uint16)
+    ids[:, :16] = 7
+    ids[:, 16:] = 9
+    cv2.imwrite(str(root / "instances" / f"{name}.png"), ids)
+    (root / "instances" / f"{name}.json").write_text(json.dumps({"7": "coffee mug", "9": "Spaceship"}))
+
+
+def test_frames_folder_reads_into_labels_depth_and_ignored_unknown_types(tmp_path: Path):
+    _write_user_frame(tmp_path, "a")
+    _write_user_frame(tmp_path, "b", depth_as_npy=True)
+    (tmp_path / "rgb" / "incomplete.png").write_bytes((tmp_path / "rgb" / "a.png").read_bytes())
+    assert frame_names(tmp_path) == ["a", "b"]
+    frames = load_frames(tmp_path, 16, use_cache=False)
+    mug = frames.classes.index("Mug")
+    assert frames.labels.shape == (2, 16, 16)
+    assert (frames.labels[:, :, :8] == mug).all()
+    assert (frames.labels[:, :, 8:] == IGNORE_LABEL).all()
+    assert frames.depth_mm[:, 4:, 4:].min() == 1500 and frames.depth_mm[:, 4:, 4:].max() == 1500
+    assert frames.rgb.shape == (2, 16, 16, 3)
+
+
+def test_frames_folder_without_frames_names_the_layout(tmp_path: Path):
+    with pytest.raises(ValueError, match="rgb/"):
+        frame_names(tmp_path)
+
+
+def test_depth_metrics_exact_values():
+    true = np.array([[1.0, 2.0], [4.0, 0.0]], dtype=np.float32)
+    pred = np.array([[1.1, 2.0], [2.0, 9.0]], dtype=np.float32)
+    metrics = depth_metrics(pred, true)
+    assert metrics.pixels == 3
+    assert metrics.abs_rel == pytest.approx((0.1 + 0.0 + 0.5) / 3, rel=1e-5)
+    assert metrics.delta_1 == pytest.approx(2 / 3)
+
+
+def test_segmentation_iou_from_a_hand_made_confusion():
+    true = np.array([0, 0, 1, 1, 2, IGNORE_LABEL], dtype=np.uint8)
+    pred = np.array([0, 1, 1, 1, 1, 2], dtype=np.uint8)
+    confusion = confusion_matrix(pred, true, 3)
+    metrics = segmentation_metrics(confusion, ("Nothing", "Mug", "Cup"), task_classes=("Mug", "Cup"))
+    assert metrics.per_class_iou == pytest.approx({"Nothing": 0.5, "Mug": 0.5, "Cup": 0.0})
+    assert metrics.miou == pytest.approx(1 / 3)
+    assert metrics.task_miou == pytest.approx(0.25)
+    assert metrics.pixel_accuracy == pytest.approx(3 / 5)

@@ -1,0 +1,170 @@
+"""Training on harness frames, resuming, exporting, and the agent's learned-perception adapter on top."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from agent.classes import load_class_index
+from agent.geometry import Camera
+from agent.perception import PERCEPTION_BACKENDS, ObservationError, OraclePerception, make_perception
+from agent.perception.base import Observation
+from agent.perception.learned import LearnedConfig, LearnedModels, LearnedPerception
+from harness.camera import CameraSpec
+from harness.perception_data import render_frames
+from harness.render import Frame, Renderer
+from harness.worldgen import WorldGenConfig, generate_world
+from models.perception.network import load_checkpoint, read_info
+from models.perception.train import STATE_FILE, TrainConfig, train
+from symbolic.ontology import load_ontology
+
+TINY = (4, 4, 4, 4, 4)
+
+
+@pytest.fixture(scope="module")
+def frames_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("frames")
+    written = render_frames(root, "train", worlds=2, per_world=2, camera=CameraSpec(64, 64, 90.0), seed=0)
+    assert written == 4
+    return root
+
+
+@pytest.fixture(scope="module")
+def tiny_models(frames_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    out = {}
+    for task in ("depth", "segmentation"):
+        base = tmp_path_factory.mktemp(task)
+        config = TrainConfig(
+            task=task,  # type: ignore[arg-type]
+            frames=frames_dir,
+            out=base / "ckpt",
+            run_dir=base / "run",
+            valid_frames=frames_dir,
+            side=64,
+            widths=TINY,
+            steps=3,
+            batch=2,
+            save_every=1,
+            threads=1,
+            eval_side=64,
+        )
+        out[task] = train(config)
+    return out
+
+
+def test_harness_frames_follow_the_documented_layout(frames_dir: Path):
+    meta = json.loads((frames_dir / "meta.json").read_text())
+    assert meta["camera"] == {"width": 64, "height": 64, "hfov_deg": 90.0}
+    assert "Mug" in meta["task_classes"] and "Floor" not in meta["task_classes"]
+    names = sorted(p.stem for p in (frames_dir / "rgb").glob("*.png"))
+    assert len(names) == 4
+    for name in names:
+        legend = json.loads((frames_dir / "instances" / f"{name}.json").read_text())
+        assert set(legend.values()) <= set(load_ontology().types)
+
+
+def test_training_exports_a_checkpoint_that_rebuilds_itself(tiny_models: dict[str, Path]):
+    for task, directory in tiny_models.items():
+        config, info = read_info(directory)
+        assert config.task == task and config.input_side == 64 and config.unet.widths == TINY
+        assert info.step == 3 and info.data["count"] == 4
+        assert info.metrics["count"] == 4
+        model = load_checkpoint(directory, expect=task)  # type: ignore[arg-type]
+        out = model(torch.zeros(1, 64, 64, 3, dtype=torch.uint8))
+        assert out.shape == (1, config.unet.out_channels, 64, 64)
+    config, info = read_info(tiny_models["depth"])
+    assert config.bins is not None and config.bins.count == 50 and "abs_rel" in info.metrics
+    config, info = read_info(tiny_models["segmentation"])
+    assert config.classes[0] == "Nothing" and config.classes[1:] == load_ontology().types
+    assert "task_miou" in info.metrics
+    with pytest.raises(ValueError, match="not a depth network"):
+        load_checkpoint(tiny_models["segmentation"], expect="depth")
+
+
+def test_a_second_run_resumes_from_the_saved_state(frames_dir: Path, tmp_path: Path):
+    config = TrainConfig(
+        task="depth", frames=frames_dir, out=tmp_path / "ckpt", run_dir=tmp_path / "run",
+        side=64, widths=TINY, steps=2, batch=2, save_every=1, threads=1,
+    )  # fmt: skip
+    train(config)
+    state_path = tmp_path / "run" / STATE_FILE
+    state = torch.load(state_path, weights_only=False)
+    assert state["step"] == 2
+    state["model"]["unet.head.bias"] = torch.full_like(state["model"]["unet.head.bias"], 7.0)
+    torch.save(state, state_path)
+    train(config)  # nothing left to do: the exported weights are the saved state's
+    resumed = load_checkpoint(tmp_path / "ckpt")
+    assert torch.all(resumed.unet.head.bias == 7.0)
+
+
+def _harness_frame() -> Frame:
+    world = generate_world(WorldGenConfig("kitchen", 1_000_003))
+    frame = Renderer(CameraSpec(80, 60, 90.0)).render(world, noise_seed=1)
+    assert frame.rgb is not None
+    return frame
+
+
+def _camera_and_frame() -> tuple[Camera, np.ndarray]:
+    frame = _harness_frame()
+    assert frame.rgb is not None
+    return Camera(80, 60, 90.0), frame.rgb
+
+
+def test_learned_perception_turns_rgb_into_a_percept_at_the_camera_size(tiny_models: dict[str, Path]):
+    camera, rgb = _camera_and_frame()
+    models = LearnedModels(
+        load_checkpoint(tiny_models["depth"]), load_checkpoint(tiny_models["segmentation"])
+    )
+    perception = LearnedPerception(camera, models=models)
+    percept = perception.perceive(Observation(rgb=rgb), target_type="Mug")
+    assert percept.depth.shape == (60, 80) and percept.depth.dtype == np.float32
+    assert percept.class_ids.dtype == np.uint8 and int(percept.class_ids.max()) <= len(load_class_index())
+    assert set(np.unique(percept.instances)) - {0} <= set(percept.instance_types)
+    assert set(percept.instance_types.values()) <= set(load_ontology().types)
+    with pytest.raises(ObservationError) as excinfo:
+        perception.perceive(Observation(), target_type=None)
+    assert excinfo.value.field == "rgb"
+
+
+def test_equation_5_thresholds_decide_which_learned_depths_are_trusted(tiny_models: dict[str, Path]):
+    camera, rgb = _camera_and_frame()
+    models = LearnedModels(
+        load_checkpoint(tiny_models["depth"]), load_checkpoint(tiny_models["segmentation"])
+    )
+    strict = LearnedPerception(camera, LearnedConfig(c1=0.0, c2=0.0), models=models)
+    loose = LearnedPerception(camera, LearnedConfig(c1=1e9, c2=1e9), models=models)
+    assert not strict.perceive(Observation(rgb=rgb), target_type=None).depth_valid.any()
+    percept = loose.perceive(Observation(rgb=rgb), target_type=None)
+    assert np.array_equal(percept.depth_valid, percept.depth > 0)
+
+
+def test_ablation_settings_take_one_half_from_the_caller(tiny_models: dict[str, Path]):
+    frame = _harness_frame()
+    camera = Camera(80, 60, 90.0)
+    obs = Observation(rgb=frame.rgb, depth=frame.depth, instances=frame.instances, legend=frame.legend)
+    models = LearnedModels(
+        load_checkpoint(tiny_models["depth"]), load_checkpoint(tiny_models["segmentation"])
+    )
+    oracle = OraclePerception(camera).perceive(obs, target_type="Cabinet")
+    depth_only = LearnedPerception(camera, LearnedConfig(classes_source="given"), models=models)
+    percept = depth_only.perceive(obs, target_type="Cabinet")
+    assert np.array_equal(percept.class_ids, oracle.class_ids)
+    assert np.array_equal(percept.instances, frame.instances)
+    assert not np.array_equal(percept.depth, frame.depth)
+    classes_only = LearnedPerception(camera, LearnedConfig(depth_source="given"), models=models)
+    percept = classes_only.perceive(obs, target_type="Cabinet")
+    assert np.array_equal(percept.depth, frame.depth)
+    assert np.array_equal(percept.depth_valid, frame.depth > 0)  # no W90 given: every reading is trusted
+    with pytest.raises(ObservationError) as excinfo:
+        classes_only.perceive(Observation(rgb=frame.rgb), target_type=None)
+    assert excinfo.value.field == "depth"
+
+
+def test_learned_is_a_registered_perception_backend():
+    assert set(PERCEPTION_BACKENDS) >= {"oracle", "learned", "learned_depth", "learned_segmentation"}
+    with pytest.raises(KeyError, match="learned, learned_depth, learned_segmentation, oracle"):
+        make_perception("sonar", Camera(300, 300, 60.0))

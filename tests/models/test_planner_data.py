@@ -1,0 +1,165 @@
+"""Planner datasets from files on disk: ALFRED annotations, TEACh-format instances, our own dialogues."""
+
+from __future__ import annotations
+
+import json
+import re
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from models.planner.data import (
+    DatasetFiles,
+    alfred_examples,
+    build_planner_datasets,
+    handwritten_examples,
+    is_dev,
+    read_examples,
+    read_jsonl_gz,
+    teach_instance_example,
+)
+from symbolic.data_dir import REPO_ROOT
+from symbolic.ontology import load_ontology
+
+HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
+PHRASE_BANK = REPO_ROOT / "harness" / "episodes" / "phrases.json"
+TEACH_TASKS = {
+    "Water Plant",
+    "Coffee",
+    "Clean All X",
+    "Put All X On Y",
+    "Boil X",
+    "Plate Of Toast",
+    "N Slices Of X In Y",
+    "Put All X In One Y",
+    "N Cooked Slices Of X In Y",
+    "Sandwich",
+    "Salad",
+    "Breakfast",
+}
+
+
+def edh_instance() -> dict[str, Any]:
+    return {
+        "instance_id": "abc_0001.edh2",
+        "game_id": "abc_0001",
+        "dialog_history": [
+            ["Commander", "make coffee"],
+            ["Driver", "where is the mug"],
+            ["Commander", "sink"],
+        ],
+        "history_subgoals": ["Navigate", "Mug", "Pickup", "Mug"],
+        "future_subgoals": [
+            "Navigate",
+            "CoffeeMachine",
+            "Place",
+            "CoffeeMachine",
+            "ToggleOn",
+            "CoffeeMachine",
+        ],
+    }
+
+
+def test_an_edh_instance_gives_dialogue_plus_history_to_future_subgoals() -> None:
+    example = teach_instance_example(edh_instance(), "abc_0001.edh2", "Coffee", load_ontology())
+    assert example.source == "<COM> make coffee <FOL> where is the mug <COM> sink <HIS> Pickup Mug"
+    assert example.target == "Navigate CoffeeMachine, Place CoffeeMachine, ToggleOn CoffeeMachine"
+    assert (example.origin, example.task_type) == ("teach:edh", "Coffee")
+
+
+def test_without_future_subgoals_the_future_actions_are_converted() -> None:
+    instance = edh_instance()
+    del instance["future_subgoals"]
+    instance["driver_actions_future"] = [
+        {"action_name": "Forward", "oid": None},
+        {"action_name": "Place", "oid": "CoffeeMachine|+1.0|+0.9|-0.5"},
+    ]
+    example = teach_instance_example(instance, "abc_0001.tfd0", "Coffee", load_ontology())
+    assert example.target == "Navigate CoffeeMachine, Place CoffeeMachine"
+    assert example.origin == "teach:tfd"
+
+
+def test_teach_folders_split_train_dev_and_evaluation_and_skip_broken_files(tmp_path: Path) -> None:
+    root = tmp_path / "teach"
+    for split, count in (("train", 40), ("valid_unseen", 3)):
+        folder = root / "edh_instances" / split
+        folder.mkdir(parents=True)
+        for i in range(count):
+            instance = {**edh_instance(), "instance_id": f"g{split}{i}.edh0", "game_id": f"g{split}{i}"}
+            (folder / f"g{split}{i}.edh0.json").write_text(json.dumps(instance))
+    (root / "edh_instances" / "train" / "partial.edh0.json").write_text('{"dialog_hist')
+    out = DatasetFiles(tmp_path / "out")
+    report = build_planner_datasets(None, root, out, load_ontology(), teach_repeat=2)
+    train, dev = read_examples(out.train), read_examples(out.dev)
+    n_dev = sum(is_dev(f"gtrain{i}") for i in range(40))
+    assert (len(train), len(dev)) == (2 * (40 - n_dev), n_dev)
+    assert list(out.evaluation_sets()) == ["teach_valid_unseen_edh"]
+    assert {
+        e.example_id.split(".")[0] for e in read_examples(out.evaluation_path("teach_valid_unseen_edh"))
+    } == {
+        "gvalid_unseen0",
+        "gvalid_unseen1",
+        "gvalid_unseen2",
+    }
+    assert report.skipped["teach"] == 1
+    assert "partial.edh0.json" in report.reasons[0]
+
+
+@pytest.mark.data
+def test_alfred_valid_seen_gives_one_example_per_annotation_and_style(shared_data_dir: Path) -> None:
+    trajectories = list(read_jsonl_gz(shared_data_dir / "alfred" / "valid_seen.jsonl.gz"))
+    examples = alfred_examples(trajectories, load_ontology())
+    annotations = sum(len(t["turk_annotations"]["anns"]) for t in trajectories)
+    assert Counter(e.origin for e in examples) == {
+        "alfred:task_desc": annotations,
+        "alfred:high_descs": annotations,
+    }
+    first = next(e for e in examples if e.example_id.startswith(trajectories[0]["task_id"]))
+    assert first.source == "<COM> look at the clock under the lamp"
+    assert first.target == "Navigate AlarmClock, Pickup AlarmClock, Navigate DeskLamp, ToggleOn DeskLamp"
+    assert first.task_type == "look_at_obj_in_light"
+
+
+def test_the_handwritten_dialogues_cover_the_twelve_teach_tasks_with_valid_plans() -> None:
+    examples = handwritten_examples(HANDWRITTEN, load_ontology())
+    assert len(examples) == 30
+    assert {e.task_type for e in examples} == TEACH_TASKS
+    assert len({e.example_id for e in examples}) == 30
+    assert all(e.target for e in examples)
+
+
+def _words(text: str) -> list[str]:
+    return re.findall(r"[a-z']+", text.lower())
+
+
+def _bank_strings(node: object) -> list[str]:
+    if isinstance(node, dict):
+        return [s for key, value in node.items() if key != "about" for s in _bank_strings(value)]
+    if isinstance(node, list):
+        return [s for value in node for s in _bank_strings(value)]
+    return [str(node)]
+
+
+def test_the_handwritten_dialogues_do_not_use_the_generators_wording() -> None:
+    if not PHRASE_BANK.is_file():
+        pytest.skip(f"the generator's phrase bank {PHRASE_BANK} is absent")
+    bank = _bank_strings(json.loads(PHRASE_BANK.read_text(encoding="utf-8")))
+    bank_trigrams = set()
+    bank_words = set()
+    for phrase in bank:
+        for part in re.split(r"\{\w+\}", phrase):
+            words = _words(part)
+            bank_words |= set(words)
+            bank_trigrams |= {tuple(words[i : i + 3]) for i in range(len(words) - 2)}
+    ours: set[str] = set()
+    shared: set[tuple[str, ...]] = set()
+    for line in HANDWRITTEN.read_text(encoding="utf-8").splitlines():
+        for _, utterance in json.loads(line)["dialogue"]:
+            words = _words(utterance)
+            ours |= set(words)
+            shared |= {tuple(words[i : i + 3]) for i in range(len(words) - 2)} & bank_trigrams
+    assert not shared, f"three-word phrases also in the generator's banks: {sorted(shared)}"
+    unseen = ours - bank_words
+    assert len(unseen) / len(ours) >= 0.6, f"only {len(unseen)} of {len(ours)} words are new to the banks"
