@@ -81,7 +81,9 @@ class ModelPlanner:
     ) -> None:
         self.ontology = ontology
         self.config = config
-        self.generator = generator if generator is not None else load_generator()
+        if generator is None:
+            generator = load_generator(config.checkpoint or DEFAULT_CHECKPOINT_DIR)
+        self.generator = generator
 
     def plan(self, context: PlanningContext) -> PlanOutcome:
         """Generate from the dialogue (and instruction) plus history, validate, truncate, repair."""

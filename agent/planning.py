@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from types import MappingProxyType
 from typing import Literal, Protocol
 
@@ -58,6 +59,7 @@ class PlannerConfig:
     """Limits every planner honours."""
 
     max_subgoals: int = 300  # subgoals; the seed sets the "maximum length of generated subgoal" to 300
+    checkpoint: Path | None = None  # the language planner's directory; None: the shipped default
 
 
 class Planner(Protocol):
@@ -88,10 +90,11 @@ class PlanTooLong(ValueError):
 class UnknownPlanner(LookupError):
     """No planner of this name is available in this build; ``known`` lists those that are."""
 
-    def __init__(self, name: str, known: Sequence[str]) -> None:
-        super().__init__(f"no planner named {name!r}; available planners: {', '.join(known)}")
+    def __init__(self, name: str, known: Sequence[str], why: str | None = None) -> None:
+        super().__init__(why or f"no planner named {name!r}; available planners: {', '.join(known)}")
         self.name = name
         self.known = tuple(known)
+        self.why = why
 
 
 def belief_after(history: Sequence[Subgoal], ontology: Ontology) -> BeliefState:
@@ -159,8 +162,19 @@ class OraclePlanner:
             raise PlanTooLong(length, self.config.max_subgoals, stage)
 
 
+def _model_planner(ontology: Ontology, config: PlannerConfig) -> Planner:
+    """The learned language planner, imported on first use so that oracle-only sessions never load torch."""
+    from agent.model_planner import ModelPlanner
+
+    try:
+        return ModelPlanner(ontology, config)
+    except OSError as error:  # a missing or unreadable checkpoint
+        why = f"the language planner's checkpoint cannot be loaded: {error}"
+        raise UnknownPlanner("model", ("oracle",), why) from error
+
+
 _PLANNER_FACTORIES: Mapping[str, Callable[[Ontology, PlannerConfig], Planner]] = MappingProxyType(
-    {"oracle": OraclePlanner}
+    {"oracle": OraclePlanner, "model": _model_planner}
 )
 
 

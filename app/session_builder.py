@@ -142,14 +142,15 @@ def build_session(
     camera = Camera(**camera_spec.model_dump())
     planner_name = body.chosen_planner()
     try:
-        planner = make_planner(planner_name, ontology, PlannerConfig(max_subgoals=settings.max_subgoals))
+        config = PlannerConfig(max_subgoals=settings.max_subgoals, checkpoint=settings.planner_checkpoint)
+        planner = make_planner(planner_name, ontology, config)
     except UnknownPlanner as error:
+        why = error.why or f"planner {planner_name!r} is not available in this build"
         raise ApiError(
             422,
             PLANNER_UNAVAILABLE,
-            f"planner {planner_name!r} is not available in this build: the learned language planner is not "
-            f"trained and wired in yet (it arrives with the planner issue). Available planners: "
-            f"{', '.join(available_planners())}; send planner 'oracle' with 'subgoals'.",
+            f"{why}. Available planners: {', '.join(available_planners())}; planner 'oracle' with "
+            "'subgoals' needs no model.",
         ) from error
     history_subgoals = _history_subgoals(body.history, ontology)
     history = history_steps(body.history, camera, ontology)

@@ -23,6 +23,10 @@ class Settings(BaseSettings):
         default_factory=default_data_dir,
         description="Shared read-only data (ALFRED, TEACh definitions); may be absent.",
     )
+    planner_checkpoint: Path | None = Field(
+        default=None,
+        description="Language planner directory (any compatible seq2seq checkpoint); None: the shipped one.",
+    )
     log_level: str = Field(default="info", description="Root log level; logs are one JSON event per line.")
 
     # Limits: a serving process must bound what one client can make it hold.

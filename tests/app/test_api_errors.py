@@ -108,7 +108,6 @@ CASES = [
         DELETED,
         {"speaker": "Commander", "text": "hi"},
     ),
-    Case("model planner", "POST", "/v1/sessions", 422, "planner_unavailable", "oracle", {"mode": "tfd"}),
     Case(
         "oracle without subgoals",
         "POST",
