@@ -18,12 +18,13 @@ import logging
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from agent.planning import PlannerConfig, PlanningContext, PlanOutcome, belief_after
+from agent.planning import PlannerConfig, PlanningContext, PlanOutcome
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.text import format_planner_input
+from symbolic.commands import CommandItem, format_command, parse_command
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.repair import RepairEvent, repair_plan
-from symbolic.subgoals import Subgoal, format_subgoals
+from symbolic.subgoals import Subgoal, SubgoalSyntaxError, format_subgoals
 
 if TYPE_CHECKING:
     from models.planner.predict import PlanPrediction, SubgoalGenerator
@@ -86,7 +87,14 @@ class ModelPlanner:
         self.generator = generator
 
     def plan(self, context: PlanningContext) -> PlanOutcome:
-        """Generate from the dialogue (and instruction) plus history, validate, truncate, repair."""
+        """Generate from the dialogue (and instruction) plus history, validate, truncate, repair.
+
+        A commander turn written as an instruction (``symbolic.commands``: "Navigate Mug @ (2.0, 5.0, 270),
+        Pickup Mug", what a TATC commander bot says) needs no language model: its subgoals are the plan,
+        repaired from the current belief (source "commander")."""
+        command = latest_command(context, self.ontology)
+        if command is not None:
+            return self._follow(command, context)
         turns = [(turn.speaker, turn.text) for turn in context.dialogue]
         if context.instruction:
             turns.insert(0, ("Commander", context.instruction))
@@ -96,7 +104,7 @@ class ModelPlanner:
         prediction = self.generator.predict(source)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
-        repaired = repair_plan(plan, self.ontology, belief_after(context.history_subgoals, self.ontology))
+        repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
         final, cut_after = _truncated(repaired.plan, self.config.max_subgoals, "repaired")
         log = (*events, *cut, *repaired.log, *cut_after)
         LOG.info(
@@ -108,3 +116,20 @@ class ModelPlanner:
             format_subgoals(final),
         )
         return PlanOutcome(plan=tuple(final), repair_log=log, source="model")
+
+    def _follow(self, command: list[CommandItem], context: PlanningContext) -> PlanOutcome:
+        plan, cut = _truncated([item.subgoal for item in command], self.config.max_subgoals, "instructed")
+        repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
+        LOG.info("commander instruction: %s", format_command(command))
+        return PlanOutcome(plan=tuple(repaired.plan), repair_log=(*cut, *repaired.log), source="commander")
+
+
+def latest_command(context: PlanningContext, ontology: Ontology) -> list[CommandItem] | None:
+    """The items of the last commander turn when it is an instruction in ``symbolic.commands``' form."""
+    for turn in reversed(context.dialogue):
+        if turn.speaker == "Commander":
+            try:
+                return parse_command(turn.text, ontology)
+            except SubgoalSyntaxError:
+                return None  # an instruction with a malformed hint: leave it to the language model
+    return None

@@ -23,7 +23,7 @@ from symbolic.subgoals import Subgoal, SubgoalAction, parse_subgoals
 Speaker = Literal["Commander", "Driver"]
 """TEACh's speaker names (``dialog_history``); TATC's "Follower" is the Driver."""
 
-PlanSource = Literal["oracle", "model", "none"]
+PlanSource = Literal["oracle", "model", "commander", "none"]
 """Who made the current plan: given subgoals, the language model, or nobody yet."""
 
 
@@ -43,6 +43,15 @@ class PlanningContext:
     history_subgoals: tuple[Subgoal, ...] = ()
     instruction: str | None = None
     given_subgoals: str | Sequence[object] | None = None
+    belief: BeliefState | None = None
+    """The agent's belief now, when it has acted since the history (a re-plan mid-episode); None: the
+    belief after the history subgoals."""
+
+    def current_belief(self, ontology: Ontology) -> BeliefState:
+        """What repair starts from: the given belief (a copy), or the one after the history."""
+        if self.belief is not None:
+            return self.belief.copy()
+        return belief_after(self.history_subgoals, ontology)
 
 
 @dataclass(frozen=True)
@@ -151,7 +160,7 @@ class OraclePlanner:
         if not given:
             raise SubgoalsRequired("the oracle planner needs at least one subgoal; the given list is empty")
         self._check_length(len(given), "given")
-        belief = belief_after(context.history_subgoals, self.ontology)
+        belief = context.current_belief(self.ontology)
         assumed = assume_poured_containers_filled(given, belief, self.ontology)
         repaired = repair_plan(given, self.ontology, belief)
         self._check_length(len(repaired.plan), "repaired")

@@ -294,11 +294,13 @@ class AgentSession:
         return format_subgoals(self.plan)
 
     def _planning_context(self, dialogue: Sequence[DialogueTurn]) -> PlanningContext:
+        """A re-plan repairs from what the agent believes now (it may hold what the last plan picked up)."""
         return PlanningContext(
             dialogue=tuple(dialogue),
             history_subgoals=self.history_subgoals,
             instruction=self.instruction,
             given_subgoals=self.given_subgoals,
+            belief=self.executor.state.belief,
         )
 
     # ----- one step ----------------------------------------------------------------------------------

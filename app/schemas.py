@@ -324,7 +324,8 @@ class PlanOut(ResponseModel):
         description="Index of the subgoal being executed; len(subgoals) when done.", examples=[0]
     )
     source: PlanSource = Field(
-        description="oracle: given subgoals; model: the language planner; none: no plan yet.",
+        description="oracle: given subgoals; model: the language planner; commander: a commander's "
+        'instruction in subgoal form ("Navigate Mug @ (2.0, 5.0, 270), Pickup Mug"); none: no plan yet.',
         examples=["oracle"],
     )
     repair_log: list[RepairEventOut] = Field(

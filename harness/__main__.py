@@ -14,6 +14,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("harness.runner", "drive one episode through a running service and print its metrics"),
     "generate": ("harness.episodes.generate", "write TEACh-format games, EDH and TfD instances"),
     "expert": ("harness.expert.report", "measure the expert's success rate per task"),
+    "commander": ("harness.commander.cli", "one TATC episode: the commander bot talks to the follower"),
     "eval": ("harness.evaluate", "run a benchmark's episodes against the service; resumable TEACh metrics"),
 }
 

@@ -13,6 +13,9 @@ Episodes (slot i of ``--n``):
   file of ``DIR/tfd_instances/<split>/``.
 - ``edh``: the generated game i's EDH cut ``edh<k>`` (k alternating 0, 1 over the task cycles, falling back to
   edh0), or the i-th file of ``DIR/edh_instances/<split>/``.
+- ``tatc``: the tfd episode's world and task, run by the commander bot (``harness.commander``) talking to
+  the follower service, with the commander's information level ``--info`` (full, no_segmentation,
+  no_goal_location); the follower plans with the model planner, which reads the commander's instructions.
 - ``alfred``: ALFRED trajectory i of the split (train or valid_seen in the shared data), its world, its first
   annotation's ``task_desc`` as the instruction (session mode ``instruction``), 300x300 at 60°, 15° looks,
   scored with ALFRED's goal conditions; the oracle plan is ``plan.low_actions`` turned into subgoals.
@@ -41,6 +44,8 @@ from tqdm import tqdm
 
 from harness.camera import CameraSpec
 from harness.client import AgentClient
+from harness.commander.bot import InfoLevel
+from harness.commander.episode import run_tatc_episode
 from harness.episodes.model import Episode
 from harness.episodes.teach_format import load_edh, load_tfd
 from harness.metrics import EpisodeOutcome, aggregate
@@ -56,7 +61,7 @@ from harness.tasks.teach import BENCHMARK_TASKS
 from symbolic.subgoals import subgoals_from_alfred_low_actions
 from symbolic.thor import ALFRED_HFOV_DEG, TEACH_HFOV_DEG
 
-BenchmarkName = Literal["edh", "tfd", "alfred"]
+BenchmarkName = Literal["edh", "tfd", "tatc", "alfred"]
 ALFRED_SPLITS = ("train", "valid_seen")  # the ALFRED splits in the shared data
 ALFRED_CAMERA_SIDE = 300  # ALFRED's frames: 300x300 at 60° (DESIGN.md, issue 6 §4)
 DEFAULT_CAMERA_SIDE = 300  # TEACh renders 900x900; 300 keeps an episode fast (``--camera 900`` restores it)
@@ -84,6 +89,7 @@ class EvalConfig:
     navigator: Literal["fmm", "vin"] = "fmm"
     tasks: tuple[str, ...] = BENCHMARK_TASKS
     data: str | None = None  # folder of TEACh-format instances, instead of generating them
+    info: InfoLevel = "full"  # TATC: what the commander may tell (the JARVIS seed's Table 2)
 
     def __post_init__(self) -> None:
         if self.n < 1:
@@ -119,7 +125,7 @@ class EvalConfig:
 
 def _instance_files(config: EvalConfig) -> list[Path]:
     assert config.data is not None
-    kind = "tfd_instances" if config.benchmark == "tfd" else "edh_instances"
+    kind = "edh_instances" if config.benchmark == "edh" else "tfd_instances"
     folder = Path(config.data) / kind / config.split
     files = sorted(folder.glob("*.json"))
     if not files:
@@ -163,8 +169,8 @@ def episode_for(config: EvalConfig, slot: int) -> Episode:
             raise EpisodeUnavailable(f"{config.data} holds {len(files)} instances, no slot {slot}")
         path = files[slot]
         games = Path(config.data) / "games"
-        return load_tfd(path, games, split) if config.benchmark == "tfd" else load_edh(path, games, split)
-    if config.benchmark == "tfd":
+        return load_edh(path, games, split) if config.benchmark == "edh" else load_tfd(path, games, split)
+    if config.benchmark in ("tfd", "tatc"):
         return generated_episode(split, slot, config.camera, config.tasks, instance="tfd")
     cut = f"edh{(slot // len(config.tasks)) % 2}"
     try:
@@ -182,7 +188,10 @@ def run_slot(config: EvalConfig, slot: int, base_url: str) -> dict[str, Any]:
     except EpisodeUnavailable as error:
         return {"slot": slot, "unavailable": str(error)}
     with AgentClient(base_url, timeout=CLIENT_TIMEOUT_S) as client:
-        run = run_episode(episode, client, config.options())
+        if config.benchmark == "tatc":
+            run = run_tatc_episode(episode, client, config.options(), config.info)
+        else:
+            run = run_episode(episode, client, config.options())
     failed = next((s.subgoal for s in run.subgoals if s.status == "failed"), None)
     return {
         "slot": slot,
@@ -344,6 +353,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--planner", default="oracle", choices=("oracle", "model"))
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
+    parser.add_argument("--info", default="full", choices=get_args(InfoLevel), help="TATC commander's info")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--url", help="base URL of a running service")
     where.add_argument("--start-service", action="store_true", help="start a service for this run")
@@ -369,6 +379,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             navigator=args.navigator,
             tasks=tuple(args.tasks),
             data=str(args.data.resolve()) if args.data else None,
+            info=args.info,
         )
     except ValueError as error:
         parser.error(str(error))

@@ -315,7 +315,7 @@ def run_episode(
                 encoding=encoding,
             )
             version, pointer = progress.see(result)
-            record = _execute(simulator, step, result, version, pointer)
+            record = execute_action(simulator, step, result, version, pointer)
             actions.append(record)
             if on_step is not None:
                 on_step(record, result)
@@ -371,7 +371,7 @@ def run_episode(
     )
 
 
-def _execute(
+def execute_action(
     simulator: Simulator, step: int, result: Mapping[str, Any], version: int, pointer: int
 ) -> ActionRecord:
     """Carry out the service's action; Stop is not a simulator action (it ends the episode, TEACh)."""

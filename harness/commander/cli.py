@@ -1,0 +1,74 @@
+"""``python -m harness commander``: one TATC episode, the commander here and the follower over HTTP."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import get_args
+
+from harness.camera import CameraSpec
+from harness.client import AgentClient
+from harness.commander.bot import InfoLevel
+from harness.commander.episode import run_tatc_episode
+from harness.runner import (
+    DEFAULT_CAMERA,
+    EpisodeUnavailable,
+    RunnerOptions,
+    describe_metrics,
+    describe_subgoals,
+    generated_tfd_episode,
+    service_url,
+)
+from harness.splits import SPLITS
+from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.thor import TEACH_HFOV_DEG
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m harness commander", description=main.__doc__)
+    parser.add_argument("--task", choices=BENCHMARK_TASKS, help="only this task (default: index %% 12)")
+    parser.add_argument("--split", default="valid_unseen", choices=SPLITS)
+    parser.add_argument("--index", type=int, default=0, help="generated game within the split")
+    parser.add_argument(
+        "--info", default="full", choices=get_args(InfoLevel), help="what the commander may tell"
+    )
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--url", help="base URL of the follower service")
+    where.add_argument("--start-service", action="store_true", help="start a follower service for this run")
+    parser.add_argument("--port", type=int, help="port of a running service (or for --start-service)")
+    parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
+    parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
+    parser.add_argument("--json", type=Path, help="write the run's summary here")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one TATC episode: the commander bot converses with the follower service; print the dialogue."""
+    args = _parser().parse_args(argv)
+    camera = CameraSpec(args.camera, args.camera, TEACH_HFOV_DEG)
+    tasks = (args.task,) if args.task else BENCHMARK_TASKS
+    try:
+        episode = generated_tfd_episode(args.split, args.index, camera, tasks)
+    except EpisodeUnavailable as error:
+        print(f"no episode: {error}", file=sys.stderr)
+        return 1
+    print(f"TATC episode {episode.instance_id}: {episode.task.describe()} (commander info: {args.info})")
+    options = RunnerOptions(camera=camera, perception=args.perception, delete_session=False)
+    with service_url(args.url, args.port, args.start_service) as url, AgentClient(url, timeout=120) as client:
+        run = run_tatc_episode(episode, client, options, args.info)
+        dialogue = client.get_session(run.session_id)["dialogue"]
+        client.delete(run.session_id)
+    for turn in dialogue:
+        print(f"  {turn['speaker']}: {turn['text']}")
+    print("subgoals:")
+    print("\n".join(describe_subgoals(run)))
+    print("metrics:")
+    print("\n".join(describe_metrics(run)))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({**run.summary(), "dialogue": dialogue}, indent=2))
+        print(f"wrote {args.json}")
+    return 0
