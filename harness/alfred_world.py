@@ -65,7 +65,6 @@ from harness.invariants import (
     on_wall,
     reachable_centres,
     viewable_from,
-    within_interaction_distance,
 )
 from harness.navgrid import BLOCKING_BELOW_M, CLEARANCE_M, reachable_grid
 from harness.physics import resting_center
@@ -1272,9 +1271,7 @@ def _place_on_floor(
     ok = _free_boxes(b, lo_all, hi_all)
     idx = np.flatnonzero(ok)
     if len(idx):
-        ok[idx] = viewable_from(b.reachable, lo_all[idx], hi_all[idx]) & within_interaction_distance(
-            b.reachable, lo_all[idx], hi_all[idx]
-        )
+        ok[idx] = viewable_from(b.reachable, lo_all[idx], hi_all[idx])
     for i in np.flatnonzero(ok)[:1]:
         lo, hi, facing = candidates[i]
         piece = _add(b, object_type, lo, hi, facing, "floor")
@@ -1818,11 +1815,8 @@ def _hang_on_walls(b: _Build, world: World) -> None:
 
 
 def _in_reach(points: np.ndarray, lo: list[float], hi: list[float]) -> bool:
-    """The world checks' reach rule and AI2-THOR's interaction distance, from the agent's cells."""
-    box_lo, box_hi = np.array([lo]), np.array([hi])
-    return bool(
-        viewable_from(points, box_lo, box_hi)[0] and within_interaction_distance(points, box_lo, box_hi)[0]
-    )
+    """The world checks' reach rule (within AI2-THOR's reach cylinder), from the agent's cells."""
+    return bool(viewable_from(points, np.array([lo]), np.array([hi]))[0])
 
 
 def _mount_on_wall(

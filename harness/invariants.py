@@ -21,18 +21,17 @@ from harness.navgrid import reachable_grid
 from harness.world import World, WorldObject
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import (
-    CAMERA_HEIGHT_M,
     GRID_STEP_M,
     HORIZON_MAX_DEG,
     HORIZON_MIN_DEG,
-    INTERACTION_DISTANCE_M,
 )
 
 EPS_M = 2e-3
 """Contact tolerance: faces closer than this touch; boxes must overlap by more than this to interpenetrate."""
 
 VIEW_HORIZONTAL_M = 1.3
-"""An object is reachable from a cell whose centre is at most this far from its box, horizontally."""
+"""An object is reachable from a cell whose centre is at most this far from its box, horizontally: inside
+AI2-THOR's 1.5 m reach cylinder (``harness.reach``) with room for clicks beyond the box's nearest edge."""
 
 VIEW_TOP_MAX_M = 2.4
 """Highest box top the agent's camera (1.576 m, looking up to 30 degrees) still brings into view."""
@@ -91,21 +90,6 @@ def viewable_from(cells: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
         return np.zeros(len(lo), dtype=bool)
     near = (_horizontal_distances(cells, lo, hi) <= VIEW_HORIZONTAL_M).any(axis=1)  # [N]
     return top_ok & near
-
-
-def within_interaction_distance(
-    cells: np.ndarray, lo: np.ndarray, hi: np.ndarray, camera_height: float = CAMERA_HEIGHT_M
-) -> np.ndarray:
-    """[N] bool: some cell's camera is within AI2-THOR's 1.5 m interaction distance of the box.
-
-    Stricter than the reach rule for low objects (the inside of a bathtub, a cabinet's bottom shelf); the
-    generator uses it for the objects it puts into receptacles so the simulator can act on every one.
-    """
-    if len(cells) == 0:
-        return np.zeros(len(lo), dtype=bool)
-    flat = _horizontal_distances(cells, lo, hi)  # [N, M]
-    dy = np.maximum(np.maximum(lo[:, None, 1] - camera_height, camera_height - hi[:, None, 1]), 0.0)  # [N, 1]
-    return (np.hypot(flat, dy) <= INTERACTION_DISTANCE_M).any(axis=1)
 
 
 def component_count(grid: np.ndarray) -> int:

@@ -3,7 +3,8 @@
 Semantics follow AI2-THOR as TEACh drives it (``SimulatorTHOR.add_interaction``): the body moves one
 0.25 m grid cell or turns 90°, the camera tilts in 30° steps (15° for ALFRED); an object action takes a
 click point, resolves it through the instance mask (``harness.clicks``), refuses targets whose clicked
-surface is farther than 1.5 m from the camera, applies its effect and then the contact rules of
+surface lies outside AI2-THOR's 1.5 m reach cylinder about the agent's vertical axis (``harness.reach``),
+applies its effect and then the contact rules of
 ``harness.physics``. ALFRED's action names map onto the same semantics. Failures carry the categories of
 the JARVIS seed's Table 8 (``harness.failures``).
 
@@ -13,9 +14,9 @@ Our simplifications, stated so nobody mistakes them for AI2-THOR's physics:
   would then face is not free.
 - The held object's world position rides at the renderer's HAND_OFFSET_M in front of the camera (AI2-THOR
   reports the hand's position for it too); its contents ride along.
-- Distance is measured from the camera to the surface point seen at the resolved object's pixel nearest
-  the click (TEACh raycasts at the click itself; a click just beside a near object would then be judged
-  by the wall behind it).
+- Reach is measured at the surface point seen at the resolved object's pixel nearest the click (TEACh
+  raycasts at the click itself; a click just beside a near object would then be judged by the wall
+  behind it), where AI2-THOR accepts an object when any of its visibility points is in reach.
 - Not modelled: Table 8's "collide when picking up / placing" (objects never clip here) and Break.
 """
 
@@ -33,6 +34,7 @@ from harness.clicks import ClickHit, click_pixel, click_radius_px, resolve_click
 from harness.failures import FailureReason
 from harness.geometry import HAND_OFFSET_M
 from harness.navgrid import blocks_movement, cell_is_reachable, reachable_grid
+from harness.reach import horizontal_distance
 from harness.render import Frame, Renderer
 from harness.world import World, WorldObject
 from symbolic.ontology import ObjectTypeInfo, load_ontology
@@ -361,12 +363,14 @@ class Simulator:
                 return _fail(name, FailureReason.NOTHING_AT_POINT, f"nothing to {name} at ({x:.3f}, {y:.3f})")
             return _fail(name, LACKING[name], f"cannot {name} {there.object_type}", there.object_id)
         target, hit = found
-        distance, point = self._surface_point(frame, hit.row, hit.col)
+        point = self._surface_point(frame, hit.row, hit.col)
+        agent = self.world.agent
+        distance = float(horizontal_distance(np.array(point), agent.x, agent.z))
         if distance > INTERACTION_DISTANCE_M:
             return _fail(
                 name,
                 FailureReason.TOO_FAR,
-                f"{target.object_id} is {distance:.2f} m away (limit {INTERACTION_DISTANCE_M} m)",
+                f"{target.object_id} is {distance:.2f} m from the agent (limit {INTERACTION_DISTANCE_M} m)",
                 target.object_id,
             )
         result = self._effects[name](target, point)
@@ -387,13 +391,13 @@ class Simulator:
             return _fail(name, FailureReason.POUR_NOT_POSSIBLE, f"holding {what}; nothing to pour")
         return None
 
-    def _surface_point(self, frame: Frame, row: int, col: int) -> tuple[float, Point]:
-        """Euclidean distance (metres) from the camera to the surface seen at a pixel, and its world point."""
+    def _surface_point(self, frame: Frame, row: int, col: int) -> Point:
+        """The world point of the surface seen at a pixel."""
         depth = float(frame.depth[row, col])
         ray_cam = np.array([self._x_over_z[col], self._y_over_z[row], 1.0])  # camera frame, z = 1
         pose = self._camera_pose()
         point = pose.position + depth * (camera_to_world(pose) @ ray_cam)
-        return depth * float(np.linalg.norm(ray_cam)), (float(point[0]), float(point[1]), float(point[2]))
+        return (float(point[0]), float(point[1]), float(point[2]))
 
     # ---- effects (the target is resolved, visible and within reach) --------------------------------
 

@@ -33,7 +33,6 @@ from harness.invariants import (
     on_wall,
     reachable_centres,
     viewable_from,
-    within_interaction_distance,
 )
 from harness.navgrid import BLOCKING_BELOW_M, reachable_grid
 from harness.world import AgentState, Room, RoomKind, World, WorldObject, make_object_id
@@ -1033,10 +1032,7 @@ def _fit_object(
         hi = (center[0] + sx / 2, center[1] + h / 2, center[2] + sz / 2)
         if not b.on_floor(lo, hi) or b.collides(lo, hi, exclude):
             continue
-        box_lo, box_hi = np.array([lo]), np.array([hi])
-        if not (
-            viewable_from(cells, box_lo, box_hi)[0] and within_interaction_distance(cells, box_lo, box_hi)[0]
-        ):
+        if not viewable_from(cells, np.array([lo]), np.array([hi]))[0]:
             continue
         oid = make_object_id(object_type, center)
         if oid in b.world.objects:

@@ -7,8 +7,9 @@ strictly shorter. Backward is never needed (a turn and Forward reach the same ce
 tilt the camera; they follow the body motion.
 
 An object is interactable from a pose when some pixel of its instance mask sees a surface within 1.5 m of
-the camera (AI2-THOR's visibilityDistance, checked at the clicked pixel as the simulator checks it).
-Candidate poses are reachable cells within that distance of the object's box, at yaws and horizons that
+the agent's vertical axis (AI2-THOR's visibilityDistance cylinder, ``harness.reach``, checked at the clicked
+pixel as the simulator checks it). Candidate poses are reachable cells within that distance of the object's
+box, at yaws and horizons that
 bring the box into the field of view; they are tried in order of motion cost and each one is verified on
 a depth + instance render at reduced resolution. The click is an interior pixel of the visible mask
 (distance transform) near its centroid; for placing on a top surface (counter, table) it is a pixel of the
@@ -24,11 +25,12 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from harness.camera import CameraPose, CameraSpec, pixel_ray_tables, rays_world
+from harness.camera import CameraPose, CameraSpec, rays_world
 from harness.expert.planning import FACING_AXES
 from harness.geometry import DRAWER_SLIDE_FRACTION, SLIDING_TYPES
 from harness.navgrid import reachable_grid
 from harness.physics import encloses
+from harness.reach import in_reach
 from harness.render import Frame, Renderer
 from harness.world import World, WorldObject
 from symbolic.ontology import load_ontology
@@ -259,8 +261,7 @@ def candidate_poses(
     cz = room.origin[1] + (izs + 0.5) * GRID_STEP_M
     dx = np.maximum(np.maximum(x0 - cx, cx - x1), 0.0)  # [M] horizontal gaps to the box
     dz = np.maximum(np.maximum(z0 - cz, cz - z1), 0.0)
-    dy = max(y0 - cam_h, cam_h - y1, 0.0)
-    near = np.hypot(np.hypot(dx, dz), dy) <= max_distance_m
+    near = np.hypot(dx, dz) <= max_distance_m  # AI2-THOR's reach cylinder (harness.reach)
     if front is not None:
         facing, plane = front
         axis, sign = FACING_AXES[facing % 360]
@@ -339,14 +340,14 @@ def choose_clicks(
     interior pixel nearest the mask's centroid; the mask pixel farthest from its edge comes next.
     """
     H, W = frame.instances.shape
-    x_over_z, y_over_z = pixel_ray_tables(low)
-    norm = np.sqrt(1.0 + x_over_z[None, :] ** 2 + y_over_z[:, None] ** 2)  # [H, W] metres per unit z-depth
-    ok = (frame.instances == instance_id) & (frame.depth * norm <= max_distance_m)  # [H, W]
+    rays = rays_world(low, pose)  # [3, H, W]
+    points = pose.position[:, None, None] + frame.depth[None] * rays  # [3, H, W] surface point of each pixel
+    reached = in_reach(np.moveaxis(points, 0, -1), pose.x, pose.z, max_distance_m)  # [H, W]
+    ok = (frame.instances == instance_id) & reached  # [H, W]
     if not ok.any():
         return ()
     if top_y is not None:
-        height = pose.y + frame.depth * rays_world(low, pose)[1]  # [H, W] world y of each surface point
-        on_top = ok & (np.abs(height - top_y) <= TOP_SURFACE_TOLERANCE_M)
+        on_top = ok & (np.abs(points[1] - top_y) <= TOP_SURFACE_TOLERANCE_M)
         if on_top.any():
             ok = on_top
     inside = cv2.distanceTransform(ok.astype(np.uint8), cv2.DIST_L2, 3)  # [H, W] px to the mask's edge

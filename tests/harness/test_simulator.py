@@ -225,6 +225,17 @@ def test_pickup_takes_the_object_into_the_hand() -> None:
     assert 0.3 < math.dist(apple.center, eye) < 0.7  # carried in front of the camera
 
 
+def test_reach_is_a_cylinder_about_the_agent_not_a_sphere_about_the_camera() -> None:
+    """AI2-THOR's visibilityDistance is a 1.5 m radius about the agent's vertical axis: an apple on the floor
+    just ahead is 1.6 m from the eye yet in reach (things 1.5 m away across the floor are not: TOO_FAR)."""
+    kitchen = Kitchen()
+    apple = kitchen.add(box("Apple", (AGENT_X, 0.04, AGENT_Z + 0.5), (0.08, 0.08, 0.08)))
+    sim = kitchen.simulator(horizon=60)
+    assert math.dist(apple.center, CameraPose.of_agent(sim.world.agent).position) > 1.5
+    result = act(sim, "Pickup", apple)
+    assert result.success and sim.world.agent.held == apple.object_id
+
+
 def test_pickup_resolves_a_click_just_beside_the_object() -> None:
     kitchen = Kitchen()
     apple = kitchen.put("Apple", -0.3, (0.08, 0.08, 0.08))
