@@ -3,8 +3,10 @@
 Every object is its box, except where AI2-THOR would show more: an open fridge or cabinet is a hollow
 shell with its door swung out beside the front face (so what is inside shows), an open drawer slides out
 with its contents, basins, bowls, pots, pans and cups are open-topped (so what is in them shows, liquid
-included), and the held object floats in front of the camera as AI2-THOR draws the agent's hand-held
-object. Walls stand on the boundary of the room's floor cells.
+included), a coffee machine's nook is open at the front (so the mug in it shows), and the held object
+floats in front of the camera as AI2-THOR draws the agent's hand-held object. Panels are as thick as the
+catalog's walls, so what rests on a receptacle's inner floor lies on the drawn floor. Walls stand on the
+boundary of the room's floor cells.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 
 from harness.appearance import Surface, surface_of
 from harness.camera import CameraPose, camera_to_world
+from harness.catalog import load_catalog
 from harness.world import STRUCTURE_IDS, Room, World, WorldObject
 from symbolic.thor import GRID_STEP_M
 
@@ -49,6 +52,10 @@ OPEN_TOP_TYPES = frozenset(
 
 SLIDING_TYPES = frozenset({"Drawer"})
 """Openables that slide out rather than swing a door (AI2-THOR's drawers)."""
+
+NOOK_TYPES = frozenset({"CoffeeMachine"})
+"""Appliances whose slot is open at the front, as AI2-THOR's coffee machines are (the mug stands in a nook
+under the spout, in plain view): drawn as a shell with no front panel, so what stands in them shows."""
 
 
 @dataclass(frozen=True)
@@ -163,7 +170,7 @@ def _placement_of(world: World, obj: WorldObject, hand: DrawTransform | None) ->
 
 
 def _is_drawn_solid(obj: WorldObject) -> bool:
-    return not obj.is_open and obj.object_type not in OPEN_TOP_TYPES
+    return not obj.is_open and obj.object_type not in OPEN_TOP_TYPES | NOOK_TYPES
 
 
 def _hidden_in_closed_receptacle(world: World, obj: WorldObject, camera: np.ndarray) -> bool:
@@ -188,9 +195,21 @@ def _facing_axis(facing: int) -> tuple[int, int]:
     return {0: (2, 1), 90: (0, 1), 180: (2, -1), 270: (0, -1)}[yaw]
 
 
-def _panel(lo: Vec3, hi: Vec3, axis: int, side: int) -> tuple[Vec3, Vec3]:
-    """The slab of a box along one face: SHELL_THICKNESS_M thick (thinner for small boxes)."""
-    thickness = min(SHELL_THICKNESS_M, MIN_PANEL_FRACTION * (hi[axis] - lo[axis]))
+def _wall_of(object_type: str) -> float:
+    """How thick an open receptacle's or container's panels are drawn: the catalog's wall thickness for
+    receptacles that hold things inside (so a thin knife at the bottom of a garbage can lies on the drawn
+    floor, not buried in it), SHELL_THICKNESS_M for the rest."""
+    catalog = load_catalog()
+    return (
+        catalog.wall_thickness(object_type)
+        if catalog.placement(object_type) == "inside"
+        else SHELL_THICKNESS_M
+    )
+
+
+def _panel(lo: Vec3, hi: Vec3, axis: int, side: int, wall: float) -> tuple[Vec3, Vec3]:
+    """The slab of a box along one face: ``wall`` thick (thinner for small boxes)."""
+    thickness = min(wall, MIN_PANEL_FRACTION * (hi[axis] - lo[axis]))
     p_lo, p_hi = list(lo), list(hi)
     if side > 0:
         p_lo[axis] = hi[axis] - thickness
@@ -199,20 +218,28 @@ def _panel(lo: Vec3, hi: Vec3, axis: int, side: int) -> tuple[Vec3, Vec3]:
     return (p_lo[0], p_lo[1], p_lo[2]), (p_hi[0], p_hi[1], p_hi[2])
 
 
-def _open_top_panels(lo: Vec3, hi: Vec3) -> list[tuple[Vec3, Vec3]]:
+def _open_top_panels(lo: Vec3, hi: Vec3, wall: float) -> list[tuple[Vec3, Vec3]]:
     """Bottom and four walls."""
-    return [_panel(lo, hi, 1, -1)] + [_panel(lo, hi, axis, side) for axis in (0, 2) for side in (-1, 1)]
+    return [_panel(lo, hi, 1, -1, wall)] + [
+        _panel(lo, hi, axis, side, wall) for axis in (0, 2) for side in (-1, 1)
+    ]
 
 
-def _open_shell_panels(lo: Vec3, hi: Vec3, facing: int) -> list[tuple[Vec3, Vec3]]:
-    """Back, sides, top and bottom of an open receptacle, plus its door swung 90° out of the front face.
+def _shell_panels(lo: Vec3, hi: Vec3, facing: int, wall: float) -> list[tuple[Vec3, Vec3]]:
+    """Back, sides, top and bottom of a receptacle whose front (the face its facing yaw points to) is open."""
+    front_axis, front_sign = _facing_axis(facing)
+    side_axis = 2 - front_axis  # the other horizontal axis
+    panels = [_panel(lo, hi, front_axis, -front_sign, wall), _panel(lo, hi, 1, -1, wall)]
+    return panels + [_panel(lo, hi, 1, 1, wall)] + [_panel(lo, hi, side_axis, s, wall) for s in (-1, 1)]
+
+
+def _door_panel(lo: Vec3, hi: Vec3, facing: int) -> tuple[Vec3, Vec3]:
+    """An open receptacle's door, swung 90° out of the front face.
 
     The hinge is on the receptacle's own right (the right of its facing yaw θ is (cos θ, 0, -sin θ)).
     """
     front_axis, front_sign = _facing_axis(facing)
-    side_axis = 2 - front_axis  # the other horizontal axis
-    panels = [_panel(lo, hi, front_axis, -front_sign), _panel(lo, hi, 1, -1), _panel(lo, hi, 1, 1)]
-    panels += [_panel(lo, hi, side_axis, side) for side in (-1, 1)]
+    side_axis = 2 - front_axis
     right_sign = {0: 1, 90: -1, 180: -1, 270: 1}[facing % 360]
     width = hi[side_axis] - lo[side_axis]
     thickness = min(SHELL_THICKNESS_M, MIN_PANEL_FRACTION * width)
@@ -221,17 +248,16 @@ def _open_shell_panels(lo: Vec3, hi: Vec3, facing: int) -> list[tuple[Vec3, Vec3
     door_lo, door_hi = list(lo), list(hi)
     door_lo[front_axis], door_hi[front_axis] = sorted((front, front + front_sign * width))
     door_lo[side_axis], door_hi[side_axis] = sorted((hinge, hinge + right_sign * thickness))
-    panels.append(((door_lo[0], door_lo[1], door_lo[2]), (door_hi[0], door_hi[1], door_hi[2])))
-    return panels
+    return (door_lo[0], door_lo[1], door_lo[2]), (door_hi[0], door_hi[1], door_hi[2])
 
 
-def _liquid_layer(lo: Vec3, hi: Vec3) -> tuple[Vec3, Vec3]:
+def _liquid_layer(lo: Vec3, hi: Vec3, wall: float) -> tuple[Vec3, Vec3]:
     """The liquid inside an open-topped container: between its walls, up to LIQUID_LEVEL of the inside."""
-    floor_y = _panel(lo, hi, 1, -1)[1][1]  # top of the bottom panel
+    floor_y = _panel(lo, hi, 1, -1, wall)[1][1]  # top of the bottom panel
     layer_lo, layer_hi = list(lo), list(hi)
     for axis in (0, 2):
-        wall = min(SHELL_THICKNESS_M, MIN_PANEL_FRACTION * (hi[axis] - lo[axis]))
-        layer_lo[axis], layer_hi[axis] = lo[axis] + wall, hi[axis] - wall
+        side = min(wall, MIN_PANEL_FRACTION * (hi[axis] - lo[axis]))
+        layer_lo[axis], layer_hi[axis] = lo[axis] + side, hi[axis] - side
     layer_lo[1] = floor_y
     layer_hi[1] = floor_y + LIQUID_LEVEL * (hi[1] - floor_y)
     return (layer_lo[0], layer_lo[1], layer_lo[2]), (layer_hi[0], layer_hi[1], layer_hi[2])
@@ -240,17 +266,21 @@ def _liquid_layer(lo: Vec3, hi: Vec3) -> tuple[Vec3, Vec3]:
 def _object_boxes(obj: WorldObject, instance_id: int, placement: DrawTransform | None) -> list[Box]:
     surface = surface_of(obj)
     lo, hi = obj.min_corner, obj.max_corner
+    wall = _wall_of(obj.object_type)
     parts: list[tuple[Vec3, Vec3, Surface]]
     if obj.is_open and obj.object_type in SLIDING_TYPES:
-        parts = [(p_lo, p_hi, surface) for p_lo, p_hi in _open_top_panels(lo, hi)]
+        parts = [(p_lo, p_hi, surface) for p_lo, p_hi in _open_top_panels(lo, hi, wall)]
     elif obj.is_open:
-        parts = [(p_lo, p_hi, surface) for p_lo, p_hi in _open_shell_panels(lo, hi, obj.facing)]
+        panels = [*_shell_panels(lo, hi, obj.facing, wall), _door_panel(lo, hi, obj.facing)]
+        parts = [(p_lo, p_hi, surface) for p_lo, p_hi in panels]
+    elif obj.object_type in NOOK_TYPES:
+        parts = [(p_lo, p_hi, surface) for p_lo, p_hi in _shell_panels(lo, hi, obj.facing, wall)]
     elif obj.object_type in OPEN_TOP_TYPES:
         body = replace(surface, liquid=None)
-        parts = [(p_lo, p_hi, body) for p_lo, p_hi in _open_top_panels(lo, hi)]
+        parts = [(p_lo, p_hi, body) for p_lo, p_hi in _open_top_panels(lo, hi, wall)]
         if obj.liquid is not None:
             liquid = Surface(object_type=obj.object_type, instance_key=obj.object_id, liquid=obj.liquid)
-            parts.append((*_liquid_layer(lo, hi), replace(liquid, liquid_layer=True)))
+            parts.append((*_liquid_layer(lo, hi, wall), replace(liquid, liquid_layer=True)))
     else:
         parts = [(lo, hi, surface)]
     if placement is None:

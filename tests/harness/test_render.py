@@ -190,6 +190,29 @@ def test_egg_in_a_pot_is_visible_from_above() -> None:
     assert frame.legend.get(world.instance_ids[egg.object_id]) == "Egg"
 
 
+def test_a_mug_in_the_coffee_machine_shows_in_its_open_nook() -> None:
+    """AI2-THOR's coffee machine holds the mug in plain view under the spout (it is not a closed box)."""
+    counter = thing("CounterTop", (0.0, 0.45, 1.0), (1.0, 0.9, 0.6), facing=180)
+    machine = thing(
+        "CoffeeMachine", (0.0, 1.09, 0.9), (0.24, 0.38, 0.3), facing=180, parent_id=counter.object_id
+    )
+    mug = thing("Mug", (0.0, 0.955, 0.9), (0.09, 0.1, 0.12), parent_id=machine.object_id)
+    world = make_world([counter, machine, mug], AgentState(x=0.0, z=0.0, horizon=30.0))
+    frame = Renderer(CameraSpec(240, 240, 90.0)).render(world)
+    assert pixels_of(frame, mug, world).sum() > 20
+    assert pixels_of(frame, machine, world).sum() > 20  # its back, sides, base and top still drawn
+
+
+def test_a_thin_knife_at_the_bottom_of_a_garbage_can_lies_on_the_drawn_floor() -> None:
+    """Things rest on a receptacle's inner floor at the catalog's wall thickness, so panels are drawn that
+    thick: a butter knife 1.5 cm high in a garbage can is not buried in a thicker drawn bottom."""
+    can = thing("GarbageCan", (0.0, 0.225, 0.7), (0.32, 0.45, 0.32))
+    knife = thing("ButterKnife", (0.0, 0.0175, 0.7), (0.03, 0.015, 0.2), parent_id=can.object_id)
+    world = make_world([can, knife], AgentState(x=0.0, z=0.25, horizon=60.0))
+    frame = Renderer(CameraSpec(240, 240, 90.0)).render(world)
+    assert pixels_of(frame, knife, world).sum() > 10
+
+
 def test_held_object_floats_bottom_right_and_close() -> None:
     apple = thing("Apple", (0.0, 0.05, 1.5), (0.1, 0.1, 0.1))
     world = make_world([apple], AgentState(x=0.0, z=0.0, horizon=30.0))
