@@ -3,7 +3,7 @@
 Parameters are the kinds TEACh's games use: Put All X On Y moves small handheld things (Fork, Spoon,
 RemoteControl, Newspaper, ... or a class such as Silverware) onto furniture or into containers (a type or
 a class such as Tables); N Slices Of X In Y serves 1-3 slices of Tomato/Lettuce/Potato/Apple/Bread on a
-Plate or in a Bowl; Boil X boils a Potato or an Egg; Clean All X cleans every Mug/Cup/Plate/Bowl/Pot/Pan;
+Plate or in a Bowl; Boil X boils a Potato; Clean All X cleans every Mug/Cup/Plate/Bowl/Pot/Pan;
 Breakfast is one of a few menus of two or three of its items, the absent ones given as "0" (its 14
 parameters: see ``comments_task_params`` in TEACh's 301__breakfast.json).
 
@@ -91,7 +91,11 @@ _COMMON_TYPES = ("DiningTable", "CounterTop", "Sofa", "ArmChair", "Chair", "Fork
 
 _SLICEABLE_FOOD = ("Tomato", "Lettuce", "Potato", "Apple", "Bread")
 _DISHES = ("Plate", "Bowl")
-_BOILABLE = ("Potato", "Egg")
+_BOILABLE = ("Potato",)
+"""X of Boil X: TEACh's boiled rule (``__update_custom_property_boiled``) marks an object boiled when its
+AI2-THOR ``isCooked`` flips while it sits in a container of water, and among whole foods only a Potato is
+cookable in AI2-THOR's object table (an Egg is not; cracked, it is an EggCracked, which TEACh poaches in
+its "Poach Egg" task)."""
 _WASHABLE = ("Mug", "Cup", "Plate", "Bowl", "Pot", "Pan")
 _WATER_CONTAINERS = ("Cup", "Mug", "Bowl", "Pot", "Kettle", "WateringCan", "Bottle")
 """Containers the follower may carry water in to a plant, preferred first."""

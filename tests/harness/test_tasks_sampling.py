@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from harness import physics
 from harness.tasks.sampling import (
     feasible_teach_tasks,
     is_feasible,
@@ -19,6 +20,7 @@ from harness.tasks.sampling import (
 )
 from harness.tasks.teach import BENCHMARK_TASKS, TaskInstance, check_task, make_task_instance
 from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from symbolic.ontology import load_ontology
 
 
 def build_kitchen(*extra: str) -> World:
@@ -198,6 +200,21 @@ def test_no_sample_when_nothing_fits() -> None:
     for oid in [o.object_id for o in world.objects.values() if o.object_type == "HousePlant"]:
         world.remove(oid)
     assert sample_teach_task("Water Plant", world, random.Random(0)) is None
+
+
+@pytest.mark.parametrize("params", parameter_space("Boil X"))
+def test_every_boil_x_we_pose_boils_in_a_pot_of_water_on_a_lit_burner(params: tuple[str, ...]) -> None:
+    """TEACh's boiled rule needs AI2-THOR to cook the object: posing Boil Egg asked for the impossible."""
+    (food,) = params
+    burner = WorldObject("StoveBurner|1", "StoveBurner", (1.0, 0.91, 1.0), (0.2, 0.02, 0.2), is_toggled=True)
+    pot = WorldObject("Pot|1", "Pot", (1.0, 0.995, 1.0), (0.25, 0.15, 0.25), parent_id=burner.object_id)
+    pot.liquid = "water"
+    thing = WorldObject(f"{food}|1", food, (1.0, 0.98, 1.0), (0.08, 0.06, 0.08), parent_id=pot.object_id)
+    room = Room(kind="kitchen", floor=np.ones((8, 8), dtype=bool), origin=(0.0, 0.0))
+    world = World("boil", room, {o.object_id: o for o in (burner, pot, thing)}, AgentState(x=0.125, z=0.125))
+    physics.apply_rules(world, load_ontology())
+    assert thing.is_boiled
+    assert check_task(make_task_instance("Boil X", params), world).success
 
 
 def test_unknown_task_has_no_parameter_space() -> None:
