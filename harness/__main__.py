@@ -13,7 +13,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("harness.demo", "start the service, run one kitchen TEACh episode over HTTP, show the results"),
     "run": ("harness.runner", "drive one episode through a running service and print its metrics"),
     "generate": ("harness.episodes.generate", "write TEACh-format games, EDH and TfD instances"),
-    "expert": ("harness.expert.report", "measure the expert's success rate per task"),
+    "expert": ("harness.expert.cli", "measure the expert's success rate per task, with failure reasons"),
     "commander": ("harness.commander.cli", "one TATC episode: the commander bot talks to the follower"),
     "eval": ("harness.evaluate", "run a benchmark's episodes against the service; resumable TEACh metrics"),
 }

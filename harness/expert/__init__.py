@@ -4,7 +4,8 @@
   cook) and ``dishes`` (plates of pieces) written against ``planning``'s symbolic model of the world;
 - ``navigation``: motion on the agent's lattice, interaction poses verified by rendering, click points;
 - ``expert``: runs the plan in the real ``Simulator`` and returns the ``ExpertTrajectory``;
-- ``report``: success rates per task with failure reasons (``run_expert_report``).
+- ``report``: success rates per task with failure reasons (``run_expert_report``); ``cli`` is its command
+  line, ``python -m harness expert``.
 
 May import the rest of ``harness`` and ``symbolic``; never ``agent``, ``app`` or ``models``.
 """

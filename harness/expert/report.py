@@ -6,6 +6,8 @@ space, a room that can hold them, a generated world); success is TEACh's goal ch
 valid_seen trajectories' worlds and tasks (``harness.alfred_world``, needs the shared data directory);
 success is ALFRED's goal check. The bar is 95 % per task. Results are grouped per task with a histogram of
 failure reasons (object ids reduced to types), trajectory lengths and the expert's time.
+
+``harness.expert.cli`` is its command line (``python -m harness expert``).
 """
 
 from __future__ import annotations

@@ -1,0 +1,80 @@
+"""``python -m harness expert``: the expert's success rate per task, with failure reasons (issue 3 §5).
+
+``python -m harness expert [--seeds 25] [--tasks "Coffee" ...] [--alfred-limit N] [--no-alfred] [--quiet]
+[--out FILE]`` runs ``harness.expert.report.run_expert_report``, prints a line per episode and a table per
+suite, and exits 0 only when every task meets the 95 % bar. ``bench.expert_success`` is the same command
+writing ``bench/results/expert_success.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from harness.expert.report import SUCCESS_BAR, EpisodeResult, run_expert_report
+from harness.tasks.teach import BENCHMARK_TASKS
+
+
+def _show(result: EpisodeResult) -> None:
+    status = "ok  " if result.success else "FAIL"
+    detail = "" if result.success else f"  {result.failure}"
+    print(
+        f"{status} {result.suite:6s} {result.task:28s} {result.source:12s} {result.actions:4d} actions "
+        f"{result.seconds:6.2f} s{detail}",
+        flush=True,
+    )
+
+
+def _table(title: str, tasks: dict[str, dict[str, Any]]) -> None:
+    print(f"\n{title}")
+    for name, row in tasks.items():
+        worst = next(iter(row["failure_reasons"]), "")
+        mark = "  " if row["meets_bar"] else "<<"
+        print(
+            f"{mark} {name:34s} {row['solved']:3d}/{row['episodes']:<3d} {100 * row['success_rate']:5.1f} %"
+            f"  {row['mean_actions']} actions  {row['mean_seconds']} s  {worst}"
+        )
+
+
+def main(argv: Sequence[str] | None = None, default_out: Path | None = None) -> int:
+    """The expert's success rate per task with failure reasons; 0 when every task meets the bar, else 1."""
+    parser = argparse.ArgumentParser(
+        prog="python -m harness expert", description="The expert's success rate per task (issue 3 §5)."
+    )
+    parser.add_argument("--seeds", type=int, default=25, help="episodes per TEACh task (default 25)")
+    parser.add_argument("--tasks", nargs="*", default=list(BENCHMARK_TASKS), help="TEACh tasks to run")
+    parser.add_argument("--alfred-limit", type=int, default=None, help="ALFRED trajectories (default: all)")
+    parser.add_argument("--no-alfred", action="store_true", help="skip ALFRED valid_seen")
+    parser.add_argument("--quiet", action="store_true", help="no line per episode")
+    parser.add_argument("--out", type=Path, default=default_out, help="write the JSON report here")
+    args = parser.parse_args(argv)
+    unknown = [t for t in args.tasks if t not in BENCHMARK_TASKS]
+    if unknown:
+        parser.error(f"unknown task(s) {unknown}; known: {', '.join(BENCHMARK_TASKS)}")
+    if args.seeds < 0 or (args.alfred_limit is not None and args.alfred_limit < 0):
+        parser.error("--seeds and --alfred-limit must be ≥ 0")
+    started = time.perf_counter()
+    report = run_expert_report(
+        seeds=args.seeds,
+        tasks=args.tasks,
+        alfred_limit=args.alfred_limit,
+        with_alfred=not args.no_alfred,
+        out=args.out,
+        progress=None if args.quiet else _show,
+    )
+    rows = dict(report["teach"]["tasks"])
+    _table(f"TEACh, {args.seeds} seeds per task (bar {100 * SUCCESS_BAR:.0f} %)", rows)
+    if "tasks" in report["alfred"]:
+        rows.update(report["alfred"]["tasks"])
+        _table(
+            f"ALFRED valid_seen: {report['alfred']['success_rate']} over {report['alfred']['trajectories']}",
+            report["alfred"]["tasks"],
+        )
+    else:
+        print(f"\nALFRED: {report['alfred']['skipped']}")
+    wrote = f"wrote {args.out} " if args.out is not None else ""
+    print(f"\n{wrote}after {time.perf_counter() - started:.0f} s")
+    return 0 if all(row["meets_bar"] for row in rows.values()) else 1
