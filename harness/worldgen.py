@@ -24,6 +24,7 @@ from typing import Literal, get_args
 
 import numpy as np
 
+from harness import physics
 from harness.catalog import Catalog, CounterRunSpec, FurnitureSpec, ObjectSpec, RoomSpec, Span, load_catalog
 from harness.invariants import (
     EPS_M,
@@ -61,6 +62,9 @@ PLACEMENT_TRIES = 12
 """Random positions tried for one object on one receptacle."""
 HANGING_RESERVE_M = 0.8
 """Wall space kept free below a holder for what hangs from it (a towel)."""
+FRONT_CLEARANCE_M = 0.4
+"""Free floor kept in front of every door (fridge, cabinet, drawer, microwave): the door swings or slides
+into it and the agent stands in it to reach inside."""
 
 
 class WorldGenError(RuntimeError):
@@ -208,6 +212,21 @@ _AXES: dict[int, tuple[tuple[int, int], tuple[int, int]]] = {
     270: ((0, 1), (-1, 0)),
 }
 """facing -> (right R, forward F) unit vectors in (x, z): yaw 0 faces +z, 90 faces +x (AI2-THOR)."""
+
+
+def _front_strip(obj: WorldObject) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The space a door needs in front of the object: FRONT_CLEARANCE_M deep, as wide and tall as it."""
+    (_, _), (fx, fz) = _AXES[obj.facing % 360]
+    lo, hi = list(obj.min_corner), list(obj.max_corner)
+    axis, sign = (0, fx) if fx else (2, fz)
+    face = hi[axis] if sign > 0 else lo[axis]
+    lo[axis], hi[axis] = sorted((face, face + sign * FRONT_CLEARANCE_M))
+    return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
+
+def _overlap(lo: tuple[float, ...], hi: tuple[float, ...], obj: WorldObject) -> bool:
+    """Whether the box lo/hi and the object's box share a volume thicker than EPS_M along every axis."""
+    return all(min(hi[k], obj.max_corner[k]) - max(lo[k], obj.min_corner[k]) > EPS_M for k in range(3))
 
 
 @dataclass(frozen=True)
@@ -420,6 +439,8 @@ class _Builder:
         for part, obj in zip(piece.parts, made, strict=True):
             if part.controls is not None:
                 obj.controls = made[part.controls].object_id
+        if not self.doors_clear(made):
+            return None
         for obj in made:
             self.world.add(obj)
         blocking = any(o.bottom < BLOCKING_BELOW_M for o in made)
@@ -427,6 +448,28 @@ class _Builder:
             self.discard(made)
             return None
         return made
+
+    def has_door(self, obj: WorldObject) -> bool:
+        """Furniture whose contents are reached through its front: a fridge, cabinet, drawer, microwave."""
+        info = self.ontology.get(obj.object_type)
+        return physics.encloses(obj.object_type, self.ontology) and not info.pickupable
+
+    def doors_clear(self, made: list[WorldObject]) -> bool:
+        """New parts keep every door's front clear, and their own doors open onto free floor.
+
+        A fridge pushed against a wall with its door touching the end of a counter run (or a garbage can set
+        down in front of a cabinet) could never be opened in AI2-THOR, and what it holds could not be seen.
+        """
+        placed = [o for o in self.world.objects.values() if o.parent_id is None]
+        for obj in made:
+            others = [o for o in [*placed, *made] if o is not obj]
+            if self.has_door(obj):
+                lo, hi = _front_strip(obj)
+                if not self.on_floor(lo, hi) or any(_overlap(lo, hi, o) for o in others):
+                    return False
+            if any(self.has_door(o) and _overlap(*_front_strip(o), obj) for o in others):
+                return False
+        return True
 
     def discard(self, made: list[WorldObject]) -> None:
         """Take back the objects just added (their segmentation ids too, so ids stay dense)."""

@@ -15,6 +15,7 @@ import pytest
 from harness.catalog import load_catalog
 from harness.invariants import check_world, component_count
 from harness.navgrid import reachable_grid
+from harness.physics import encloses
 from harness.world import AgentState, Room, RoomKind, World, WorldObject, make_object_id
 from harness.worldgen import (
     STRATEGIES,
@@ -219,6 +220,38 @@ def test_furniture_faces_into_the_room() -> None:
             fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[obj.facing]
             reach = max(obj.size) / 2 + 0.3
             assert world.room.contains(obj.center[0] + fx * reach, obj.center[2] + fz * reach)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_door_opens_onto_free_floor(kind: RoomKind) -> None:
+    """Fridges, cabinets, drawers and microwaves keep the floor in front of them clear (salad seed 1 had a
+    fridge whose door touched the end of the counter run: its lettuce could be neither reached nor seen)."""
+    onto = load_ontology()
+    for seed in SEEDS:
+        world = world_for(kind, seed)
+        doors = [
+            o
+            for o in world.objects.values()
+            if o.parent_id is None
+            and encloses(o.object_type, onto)
+            and not onto.get(o.object_type).pickupable
+        ]
+        for door in doors:
+            fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[door.facing]
+            axis, sign = (0, fx) if fx else (2, fz)
+            lo, hi = list(door.min_corner), list(door.max_corner)
+            face = hi[axis] if sign > 0 else lo[axis]
+            lo[axis], hi[axis] = sorted((face + sign * 0.01, face + sign * 0.3))
+            blocking = [
+                o.object_id
+                for o in world.objects.values()
+                if o.parent_id is None
+                and all(min(hi[k], o.max_corner[k]) - max(lo[k], o.min_corner[k]) > 0.01 for k in range(3))
+            ]
+            assert not blocking, f"{kind} {seed}: {door.object_id} opens into {blocking}"
+            ahead = [door.center[0], door.center[2]]
+            ahead[axis // 2] = face + sign * 0.3
+            assert world.room.contains(*ahead), f"{kind} {seed}: {door.object_id} opens into a wall"
 
 
 # ------------------------------------------------------------------------------------------- small objects
