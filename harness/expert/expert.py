@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from harness.camera import CameraSpec
 from harness.catalog import load_catalog
 from harness.expert.navigation import (
+    THOROUGH_SIGHT_RENDERS,
     BodyState,
     Reach,
     SightOracle,
@@ -189,18 +190,25 @@ class _Episode:
         return self._reach
 
     def find(self, object_id: str, top_y: float | None, exclude: set[tuple[BodyState, float]]) -> View | None:
-        return find_view(
-            self.sim.world,
-            object_id,
-            self.reach(),
-            self.renderer,
-            self.config.camera,
-            self.config.look_step_deg,
-            top_y=top_y,
-            reach_margin_m=self.config.reach_margin_m,
-            max_renders=self.config.max_view_renders,
-            exclude=frozenset(exclude),
-        )
+        """The cheapest verified view within the search budget; failing that, every candidate pose is tried
+        (as the planner's look-ahead does before it calls an object seen), so an object that only shows
+        from a few far poses is not given up on."""
+        for budget in (self.config.max_view_renders, THOROUGH_SIGHT_RENDERS):
+            view = find_view(
+                self.sim.world,
+                object_id,
+                self.reach(),
+                self.renderer,
+                self.config.camera,
+                self.config.look_step_deg,
+                top_y=top_y,
+                reach_margin_m=self.config.reach_margin_m,
+                max_renders=budget,
+                exclude=frozenset(exclude),
+            )
+            if view is not None:
+                return view
+        return None
 
     def go_to(self, view: View) -> bool:
         """Walk and look to the view's pose; False if a motion failed on the way."""
