@@ -21,9 +21,11 @@ from harness.navgrid import reachable_grid
 from harness.world import World, WorldObject
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import (
+    CAMERA_HEIGHT_M,
     GRID_STEP_M,
     HORIZON_MAX_DEG,
     HORIZON_MIN_DEG,
+    INTERACTION_DISTANCE_M,
 )
 
 EPS_M = 2e-3
@@ -32,6 +34,9 @@ EPS_M = 2e-3
 VIEW_HORIZONTAL_M = 1.3
 """An object is reachable from a cell whose centre is at most this far from its box, horizontally: inside
 AI2-THOR's 1.5 m reach cylinder (``harness.reach``) with room for clicks beyond the box's nearest edge."""
+
+SIGHT_MARGIN_M = 0.1
+"""Reach kept in hand when a box must show through a door: the click lands beyond its nearest point."""
 
 VIEW_TOP_MAX_M = 2.4
 """Highest box top the agent's camera (1.576 m, looking up to 30 degrees) still brings into view."""
@@ -90,6 +95,41 @@ def viewable_from(cells: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
         return np.zeros(len(lo), dtype=bool)
     near = (_horizontal_distances(cells, lo, hi) <= VIEW_HORIZONTAL_M).any(axis=1)  # [N]
     return top_ok & near
+
+
+def seen_through_front(
+    cells: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    front: tuple[int, int, float],
+    lateral: tuple[float, float],
+    ceiling_y: float,
+    camera_height: float = CAMERA_HEIGHT_M,
+) -> bool:
+    """Whether a box lo/hi [3] inside a receptacle with a door shows through its opening, within reach, from
+    some cell centre [M, 2] in front of it.
+
+    ``front`` is (axis 0 = x or 2 = z, sign, coordinate) of the front face, ``lateral`` the receptacle's
+    extent along the other horizontal axis, ``ceiling_y`` the underside of its top. A box low in a cabinet
+    below the eye shows only to a camera far enough back that the ray to the box's near top edge passes
+    under the cabinet's top: ``ahead >= inset * (camera - ceiling) / (ceiling - box top)``; a shelf just
+    under the top is seen from so far back that it is out of AI2-THOR's reach.
+    """
+    axis, sign, face = front
+    across = 2 - axis
+    inset = max(sign * (face - (hi[axis] if sign > 0 else lo[axis])), 0.0)
+    rise = camera_height - ceiling_y
+    if rise <= 0.0:
+        needed = 0.0
+    elif hi[1] >= ceiling_y:
+        return False
+    else:
+        needed = inset * rise / (ceiling_y - hi[1])
+    along, side = cells[:, axis // 2], cells[:, across // 2]  # [M] each
+    ahead = sign * (along - face)  # [M] distance in front of the face
+    beside = (side >= lateral[0]) & (side <= lateral[1])
+    near = _horizontal_distances(cells, lo[None], hi[None])[0] <= INTERACTION_DISTANCE_M - SIGHT_MARGIN_M
+    return bool((beside & near & (ahead >= needed)).any())
 
 
 def component_count(grid: np.ndarray) -> int:

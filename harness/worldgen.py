@@ -26,6 +26,7 @@ import numpy as np
 
 from harness import physics
 from harness.catalog import Catalog, CounterRunSpec, FurnitureSpec, ObjectSpec, RoomSpec, Span, load_catalog
+from harness.geometry import SLIDING_TYPES
 from harness.invariants import (
     EPS_M,
     check_world,
@@ -33,6 +34,7 @@ from harness.invariants import (
     is_interactable,
     on_wall,
     reachable_centres,
+    seen_through_front,
     viewable_from,
 )
 from harness.navgrid import BLOCKING_BELOW_M, reachable_grid
@@ -1029,6 +1031,28 @@ def _inner_levels(b: _Builder, host: WorldObject) -> list[tuple[float, float | N
     return [(y, levels[k + 1] - 0.02 if k + 1 < len(levels) else top) for k, y in enumerate(levels)]
 
 
+def _shows_through_door(
+    b: _Builder, host: WorldObject, lo: tuple[float, ...], hi: tuple[float, ...], cells: np.ndarray
+) -> bool:
+    """Inside a fridge, cabinet or microwave, the object must show through the open door from a reachable
+    cell within reach (``invariants.seen_through_front``): a plate at the back of a low cabinet's top shelf
+    is seen only from too far away. Drawers slide out and show everything from above."""
+    if not b.has_door(host) or host.object_type in SLIDING_TYPES:
+        return True
+    (_, _), (fx, fz) = _AXES[host.facing % 360]
+    axis, sign = (0, fx) if fx else (2, fz)
+    face = host.max_corner[axis] if sign > 0 else host.min_corner[axis]
+    across = 2 - axis
+    return seen_through_front(
+        cells,
+        np.array(lo),
+        np.array(hi),
+        (axis, sign, face),
+        (host.min_corner[across], host.max_corner[across]),
+        host.top - b.catalog.wall_thickness(host.object_type),
+    )
+
+
 def _fit_object(
     b: _Builder, object_type: str, size: tuple[float, float, float], host: WorldObject, cells: np.ndarray
 ) -> WorldObject | None:
@@ -1075,7 +1099,9 @@ def _fit_object(
         hi = (center[0] + sx / 2, center[1] + h / 2, center[2] + sz / 2)
         if not b.on_floor(lo, hi) or b.collides(lo, hi, exclude):
             continue
-        if not viewable_from(cells, np.array([lo]), np.array([hi]))[0]:
+        if not viewable_from(cells, np.array([lo]), np.array([hi]))[0] or not _shows_through_door(
+            b, host, lo, hi, cells
+        ):
             continue
         oid = make_object_id(object_type, center)
         if oid in b.world.objects:

@@ -12,10 +12,13 @@ import cv2
 import numpy as np
 import pytest
 
+from harness.camera import CameraSpec
 from harness.catalog import load_catalog
-from harness.invariants import check_world, component_count
+from harness.expert.navigation import SightOracle
+from harness.invariants import check_world, component_count, seen_through_front
 from harness.navgrid import reachable_grid
 from harness.physics import encloses
+from harness.render import Renderer
 from harness.world import AgentState, Room, RoomKind, World, WorldObject, make_object_id
 from harness.worldgen import (
     STRATEGIES,
@@ -252,6 +255,45 @@ def test_every_door_opens_onto_free_floor(kind: RoomKind) -> None:
             ahead = [door.center[0], door.center[2]]
             ahead[axis // 2] = face + sign * 0.3
             assert world.room.contains(*ahead), f"{kind} {seed}: {door.object_id} opens into a wall"
+
+
+@pytest.mark.parametrize(
+    ("inset", "top", "seen"),
+    [
+        (0.05, 0.70, True),  # a plate at the front of a low cabinet's top shelf
+        (0.25, 0.70, False),  # at its back: the ray passes under the top only from 1.75 m away
+        (0.25, 0.10, True),  # on its floor: seen from 0.4 m back
+        (0.25, 0.86, False),  # taller than the inside
+    ],
+)
+def test_seen_through_front_follows_the_sight_line_under_the_top(
+    inset: float, top: float, seen: bool
+) -> None:
+    """A cabinet 0.85 m high, front face at z = 1 facing -z, top's underside 0.83 m; cells every 0.25 m."""
+    cells = np.array([[0.125, z] for z in np.arange(-1.875, 1.0, 0.25)])  # [M, 2] in front, at x = 0.125
+    lo = np.array([0.0, top - 0.02, 1.0 + inset])
+    hi = np.array([0.24, top, 1.24 + inset])
+    assert seen_through_front(cells, lo, hi, (2, -1, 1.0), (-0.3, 0.5), 0.83) is seen
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_everything_behind_a_door_shows_when_it_is_open(seed: int) -> None:
+    """What the generator puts in a fridge, cabinet or microwave can be seen and reached from some reachable
+    pose once the door is open (a plate at the back of a cabinet's top shelf could not, in Clean All X seed
+    15, and no expert could find it)."""
+    world = world_for("kitchen", seed)
+    onto = load_ontology()
+    camera = CameraSpec(120, 120, TEACH_HFOV_DEG)
+    sight = SightOracle(Renderer(camera), camera, 30, 0.01, 16)
+    hidden = [
+        o.object_id
+        for o in world.objects.values()
+        if o.parent_id is not None
+        and encloses(world.objects[o.parent_id].object_type, onto)
+        and world.objects[o.parent_id].object_type != "Drawer"
+        and not sight.can_act_on(world, o.object_id, thorough=True)
+    ]
+    assert not hidden, hidden
 
 
 # ------------------------------------------------------------------------------------------- small objects
