@@ -115,9 +115,20 @@ def resting_center(
                 continue
             in_the_way = [o for o in others if o.bottom < floor_y + fy - 1e-6 and o.top > floor_y + 1e-6]
             spot = _free_spot((x0, z0, x1, z1), (fx, fz), in_the_way, (target[0], target[2]))
-            if spot is not None:
+            if spot is not None and _over_floor(world, spot, (fx, fz)):
                 return (spot[0], floor_y + fy / 2, spot[1]), size
     return None
+
+
+def _over_floor(world: World, spot: tuple[float, float], footprint: tuple[float, float]) -> bool:
+    """Whether a footprint centred at ``spot`` stays over the room's floor: something longer than a narrow
+    surface overhangs it (a knife across a sink's deck), and must not overhang into a wall."""
+    (cx, cz), (fx, fz) = spot, footprint
+    return all(
+        world.room.contains(cx + sx * fx / 2, cz + sz * fz / 2)
+        for sx in (-0.999, 0.999)
+        for sz in (-0.999, 0.999)
+    )
 
 
 def _orientations(size: Vec3, may_turn: bool, upright: bool) -> list[Vec3]:

@@ -250,6 +250,20 @@ def test_slices_tile_the_whole_objects_footprint_along_its_long_side() -> None:
 # ---- resting places -------------------------------------------------------------------------------------
 
 
+def test_a_knife_on_a_narrow_deck_by_the_wall_lies_along_it_not_through_the_wall() -> None:
+    """A sink's deck is 15 cm deep against the wall (z = 0); a 30 cm knife across it would poke into the
+    wall, so it turns to lie along the deck."""
+    deck = box("Sink", (1.5, 0.875, 0.075), (0.8, 0.05, 0.15))
+    knife = box("Knife", (1.0, 1.2, 1.0), (0.03, 0.02, 0.3))
+    world = world_of(deck, knife)
+    spot = physics.resting_center(world, knife, deck)
+    assert spot is not None
+    (cx, _, cz), (sx, _, sz) = spot
+    assert (sx, sz) == (0.3, 0.03)
+    assert cz - sz / 2 >= 0.0
+    assert world.room.contains(cx - sx / 2, cz) and world.room.contains(cx + sx / 2, cz)
+
+
 def test_a_shelf_three_items_wide_takes_exactly_three() -> None:
     shelf = box("Shelf", (1.0, 1.0, 1.0), (0.3, 0.02, 0.1))
     world = world_of(shelf)
