@@ -142,7 +142,10 @@ def switch_of(state: PlanState, burner: WorldObject) -> WorldObject:
 
 
 def deliver(state: PlanState, item: str, target: str | None) -> None:
-    """Carry the item to the target receptacle; with no target, just take it (and keep holding it)."""
+    """Carry the item to the target receptacle (first taking out what leaves it no room: a potato lying in
+    the bowl the lettuce is to be served in); with no target, just take it (and keep holding it)."""
+    if target is not None:
+        state.make_room(target, item)
     state.pickup(item)
     if target is not None:
         state.place(target)

@@ -225,6 +225,26 @@ def test_recipes_open_what_is_closed_and_close_it_again() -> None:
     ]
 
 
+def test_serving_into_a_bowl_first_takes_out_what_leaves_no_room() -> None:
+    """A potato lies in the only bowl; two lettuce slices do not both fit beside it, so it is taken out."""
+    world, names = counter_kitchen()
+    counter = names["CounterTop"]
+    bowl = box("Bowl", (1.6, 0.935, 2.6), (0.18, 0.07, 0.18), parent_id=counter)
+    potato = box("Potato", (1.6, 0.94, 2.58), (0.07, 0.07, 0.1), parent_id=bowl.object_id)
+    for obj in (
+        bowl,
+        potato,
+        box("Lettuce", (2.5, 0.975, 2.6), (0.17, 0.15, 0.17), parent_id=counter),
+        box("Knife", (2.8, 0.91, 2.6), (0.03, 0.02, 0.3), parent_id=counter),
+    ):
+        world.add(obj)
+    task = make_task_instance("N Slices Of X In Y", ("2", "Lettuce", "in", "Bowl"))
+    steps = interactions(plan_task(task, world))
+    last_into_bowl = len(steps) - 1 - steps[::-1].index(("Place", "Bowl"))
+    assert ("Pickup", "Potato") in steps[:last_into_bowl]
+    assert steps.count(("Place", "Bowl")) == 2
+
+
 def test_a_world_without_what_the_task_needs_has_no_plan() -> None:
     world, names = counter_kitchen()
     world.remove(names["CoffeeMachine"])
