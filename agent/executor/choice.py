@@ -14,12 +14,17 @@ import math
 from agent.executor.clicks import VisibleInstance
 from agent.executor.looks import Looks, looks, stained_share
 from agent.executor.mapview import MapCluster
-from agent.executor.state import Attempt
+from agent.executor.state import Attempt, Point
 from agent.executor.step import StepContext
 from symbolic.predicates import SPREAD_OUT_RECEPTACLES
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 A = SubgoalAction
+
+ROW_SWITCH_GAP_M = 0.08
+"""Metres: a switch this close to one switched is that one (stove knobs stand 0.12 m or more apart)."""
+ROW_REACH_M = 1.2
+"""Metres: the switches of one row (a stove's knobs) lie within this of each other."""
 
 WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "Bathtub"})
 """Where a plan puts a dish down to wash it under the running tap."""
@@ -39,6 +44,25 @@ class InstanceChoice(StepContext):
                 return self.plan[index].action is A.PLACE
         return False
 
+    def _means_another(self, obj: str) -> bool:
+        """Whether the plan's next use of an X the agent put down means another X.
+
+        Type-level plans say "Pickup Pot" for the pot just put on a counter (to carry it on to the sink)
+        and for the next watch of "put all watches on the plate". The difference is what follows: taking
+        an X up to put it where this one already went ("Place Plate, Navigate Watch, Pickup Watch, Place
+        Plate") would undo nothing and repeat a finished step, so it means another X; any other use (slice
+        it, put something into it, carry it somewhere new) means the same one. Without the instance's
+        history (an EDH session's past), a Pickup means another, as in TEACh's "put all" tasks.
+        """
+        upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
+        if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
+            return False
+        went = self.state.memory.placed_into.get(obj)
+        if not went:
+            return True
+        destination = next((s for s in upcoming[1:] if s.action in (A.PICKUP, A.PLACE)), None)
+        return destination is not None and destination.action is A.PLACE and destination.obj in went
+
     def _anchor(self, obj: str) -> tuple[float, float] | None:
         """Where the instance this subgoal means should be: where the agent last dealt with it (or with
         what it controls, or with the receptacle it is believed in). Spread-out furniture has none: any
@@ -46,7 +70,7 @@ class InstanceChoice(StepContext):
         if obj in SPREAD_OUT_RECEPTACLES:
             return None
         where = self.state.memory.where
-        related = [obj, *self.onto.controls.get(obj, ())]
+        related = [obj, *self._last_placed_into(obj), *self.onto.controls.get(obj, ())]
         inside = self.state.belief.inside.get(obj)
         if inside is not None:
             related.append(inside)
@@ -55,6 +79,16 @@ class InstanceChoice(StepContext):
                 x, _, z = where[name]
                 return x, z
         return None
+
+    def _last_placed_into(self, obj: str) -> list[str]:
+        """For a switch (StoveKnob), what the plan last put something into: the knob meant is the one of
+        the burner under that pot, not of the burner the pot was once carried to."""
+        if obj not in self.onto.controls:
+            return []
+        for index in range(self.pointer - 1, -1, -1):
+            if self.plan[index].action is A.PLACE:
+                return [self.plan[index].obj]
+        return []
 
     def _finished(self, obj: str, x: float, z: float) -> bool:
         spots = self.state.memory.done_with.get(obj, [])
@@ -145,7 +179,11 @@ class InstanceChoice(StepContext):
             v
             for v in self.view.clickable(obj)
             if attempt.instance_failures(v.instance_id) < self.cfg.retries_per_instance
+            and not self._switched(v.point, attempt.switched)
         ]
+        on = self.state.memory.switched_on.get(obj, [])
+        if attempt.subgoal.action is A.TOGGLE_OFF and on:
+            candidates = [v for v in candidates if self._switched(v.point, on)]
         remembered = self._remembered(obj, attempt)
         if remembered is not None:
             return next((v for v in candidates if v.instance_id == remembered), None)
@@ -175,6 +213,24 @@ class InstanceChoice(StepContext):
                 return None  # a mapped instance that looks as the plan needs (clean, dirty): go there
         return best
 
+    @staticmethod
+    def _switched(point: Point, switched: list[tuple[int, Point]]) -> bool:
+        return any(math.hypot(point[0] - p[0], point[2] - p[2]) < ROW_SWITCH_GAP_M for _, p in switched)
+
+    def _switches_left(self, subgoal: Subgoal, attempt: Attempt) -> int:
+        """How many switches of the row are still to switch this subgoal: to turn on, the mapped ones next
+        to those switched (a stove's knobs); to turn off, those the agent turned on."""
+        if subgoal.action is A.TOGGLE_OFF:
+            on = self.state.memory.switched_on.get(subgoal.obj, [])
+            return sum(1 for _, p in on if not self._switched(p, attempt.switched))
+        first = attempt.switched[0][1]
+        return sum(
+            1
+            for c in self.view.clusters(subgoal.obj)
+            if c.distance_to(first[0], first[2]) <= ROW_REACH_M
+            and not self._switched((c.x, 0.0, c.z), attempt.switched)
+        )
+
     def _remembered(self, obj: str, attempt: Attempt) -> int | None:
         """The instance the plan means, when the agent itself put an X down and the plan has not moved on
         to another X since (``BeliefState.placed``); None once it could not be found there."""
@@ -190,6 +246,13 @@ class InstanceChoice(StepContext):
         for cluster in self.view.clusters(obj):
             if anchor is not None and cluster.distance_to(*anchor) <= self.cfg.anchor_radius_m:
                 cluster = cluster.around(anchor[0], anchor[1], self.cfg.part_radius_m) or cluster
-            if not any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
-                clusters.append(cluster)
+            if any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
+                continue
+            if self._switched((cluster.x, 0.0, cluster.z), attempt.switched):
+                continue
+            on = self.state.memory.switched_on.get(obj, [])
+            point = (cluster.x, 0.0, cluster.z)
+            if attempt.subgoal.action is A.TOGGLE_OFF and on and not self._switched(point, on):
+                continue
+            clusters.append(cluster)
         return sorted(clusters, key=lambda c: self._rank(obj, c, c.nearest_m))

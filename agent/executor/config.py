@@ -49,6 +49,7 @@ class ExecutorConfig:
     max_failures: int = 6  # failed object actions before the subgoal is given up
     max_steps_per_subgoal: int = 300  # actions spent on one subgoal before it is given up
     max_given_up: int = 4  # subgoals given up before the episode stops
+    row_switch_steps: int = 16  # actions spent on the other switches of a row (stove knobs) once one is done
     look_sweep: int = 3  # camera pitches tried at a destination before moving around it
     stain: StainConfig = field(default_factory=StainConfig)
     ignore_after: int = DEFAULT_IGNORE_ATTEMPTS  # look-arounds at a mapped X, unseen, before Ignore(X)

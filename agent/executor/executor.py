@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.executor.clicks import ClickPurpose, VisibleInstance
+from agent.executor.clicks import Click, ClickPurpose, VisibleInstance
 from agent.executor.config import ExecutorConfig
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.search import ContainerSearch
@@ -50,6 +50,9 @@ A = SubgoalAction
 
 STATE_ACTIONS: frozenset[str] = frozenset({"Open", "Close", "ToggleOn", "ToggleOff", "Pour"})
 """Object actions that fail (changing nothing) when the object already is in the wanted state."""
+
+ROW_SWITCHES: frozenset[str] = frozenset({"StoveKnob"})
+"""Switches that come in a row, each for one of several appliances of a kind (a stove's burners)."""
 
 STOP = "Stop"
 MAX_SUBGOALS_PER_STEP = 16
@@ -238,12 +241,16 @@ class _Run(ContainerSearch, MotionSafety):
         click = pending.click
         if success is not False:
             point, instance_id = (click.point, click.instance_id) if click is not None else (None, None)
+            if click is not None and self._more_switches(subgoal, attempt, click, changed=True):
+                return
             self._complete(subgoal, f"Success({pending.action} {subgoal.obj})", point, instance_id)
             return
         attempt.failures += 1
         if click is not None:
             attempt.failed_clicks.append((click.instance_id, click.row, click.col))
             if pending.action in STATE_ACTIONS and attempt.instance_failures(click.instance_id) >= 2:
+                if self._more_switches(subgoal, attempt, click, changed=False):
+                    return
                 self._complete(
                     subgoal,
                     f"{pending.action} {subgoal.obj} changed nothing twice: already in that state",
@@ -254,6 +261,24 @@ class _Run(ContainerSearch, MotionSafety):
                 attempt.bad_stands.append((pending.pose.x, pending.pose.z))
         self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")
 
+    def _more_switches(self, subgoal: Subgoal, attempt: Attempt, click: Click, changed: bool) -> bool:
+        """For a switch of a row (``ROW_SWITCHES``: which stove knob heats which burner is not written on
+        it), note the one just switched; True while another of the row is still to switch. Turning every
+        knob on, and later off again, heats the pot whichever burner it stands on."""
+        obj = subgoal.obj
+        if obj not in ROW_SWITCHES or subgoal.action not in (A.TOGGLE_ON, A.TOGGLE_OFF):
+            return False
+        attempt.switched.append((click.instance_id, click.point))
+        on = self.state.memory.switched_on.setdefault(obj, [])
+        if subgoal.action is A.TOGGLE_ON and changed:
+            on.append((click.instance_id, click.point))
+        if subgoal.action is A.TOGGLE_OFF:
+            on[:] = [item for item in on if item[0] != click.instance_id]
+        left = self._switches_left(subgoal, attempt)
+        if left:
+            self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
+        return left > 0
+
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:
         attempt = self.state.attempt
         if attempt is None or attempt.index != self.pointer or attempt.subgoal != subgoal:
@@ -261,15 +286,16 @@ class _Run(ContainerSearch, MotionSafety):
             self.state.attempt = attempt
             memory = self.state.memory
             obj = subgoal.obj
-            if subgoal.action is A.NAVIGATE and obj in self.state.belief.placed and obj in memory.where:
+            placed = obj in self.state.belief.placed
+            if subgoal.action is A.NAVIGATE and placed and obj in memory.where and self._means_another(obj):
                 x, _, z = memory.where.pop(obj)
-                memory.done_with.setdefault(obj, []).append((x, z))  # a new Navigate X means another X
+                memory.done_with.setdefault(obj, []).append((x, z))
+                memory.placed_into.pop(obj, None)
                 attempt.any_instance = True
                 self.events.append(f"{subgoal}: another {obj} than the one put down at ({x:.2f}, {z:.2f})")
-            if subgoal.action is A.PICKUP and self._just_put_down(obj):
-                attempt.any_instance = (
-                    True  # "Place Bowl, Pickup LettuceSliced": the next slice, not that one
-                )
+            if subgoal.action is A.PICKUP and self._just_put_down(obj) and self._means_another(obj):
+                attempt.any_instance = True  # "Place Bowl, Pickup LettuceSliced": the next slice
+                memory.placed_into.pop(obj, None)
                 if obj in memory.where:
                     x, _, z = memory.where[obj]
                     memory.done_with.setdefault(obj, []).append((x, z))
@@ -289,6 +315,7 @@ class _Run(ContainerSearch, MotionSafety):
             memory.where[obj] = point
             if subgoal.action is A.PLACE and belief.held is not None:
                 memory.where[belief.held] = point
+                memory.placed_into.setdefault(belief.held, []).append(obj)
             sliced = self.onto.get(obj).sliced_into
             if subgoal.action is A.SLICE and sliced is not None:
                 memory.where[sliced] = point
@@ -338,6 +365,10 @@ class _Run(ContainerSearch, MotionSafety):
         if attempt.failures >= self.cfg.max_failures:
             return GiveUp(f"{subgoal} failed {attempt.failures} times")
         obj = subgoal.obj
+        if attempt.switched:
+            attempt.switch_steps += 1
+            if attempt.switch_steps > self.cfg.row_switch_steps:
+                return Done(f"switched {len(attempt.switched)} of the {obj} row; the rest is out of reach")
         if subgoal.action is A.NAVIGATE:
             if self.state.belief.held == obj:
                 return Done(f"IsGrasped: {obj} is in hand")

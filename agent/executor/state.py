@@ -62,6 +62,11 @@ class Memory:
     instance: dict[str, int] = field(default_factory=dict)
     """Type -> segmentation id of the instance the agent last picked up (AI2-THOR's ids, and ours, are
     stable within an episode): after putting it down, the plan's next use of the type means that one."""
+    switched_on: dict[str, list[tuple[int, Point]]] = field(default_factory=dict)
+    """Switch type -> (segmentation id, where) of the switches of a row (stove knobs) the agent turned on."""
+    placed_into: dict[str, list[str]] = field(default_factory=dict)
+    """Type -> receptacle types the instance of it the agent handles was put into since it first took it
+    up: a plan that takes an X up to put it where this one already went means another X."""
 
 
 @dataclass
@@ -118,6 +123,9 @@ class Attempt:
     unsticks: int = 0  # moves made because the navigator saw no way out
     tried_source: bool = False  # went to look where the type's pieces came from
     search: SearchState = field(default_factory=SearchState)
+    switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
+    # (stove knobs) switched this subgoal
+    switch_steps: int = 0  # actions spent on the rest of the row since the first switch
 
     def instance_failures(self, instance_id: int) -> int:
         return sum(1 for failed_id, _, _ in self.failed_clicks if failed_id == instance_id)

@@ -54,6 +54,12 @@ class FmmConfig:
     robot_radius_m: float = AGENT_RADIUS_M  # metres: obstacle dilation, AI2-THOR's agent capsule radius
     unexplored_cost: float = 2.0  # cost per metre of unexplored floor: plan optimistically through unknown
     # space (FILM and JARVIS treat it as free) but prefer a known route up to twice as long
+    tight_radii_m: tuple[float, ...] = (0.1, 0.05)  # metres: when nothing is reachable with the full
+    # clearance, plan again with these, in order, near the agent only (AI2-THOR's grid, and ours, lets the
+    # body centre come 0.125 m from a wall, and a wall mapped from noisy depth is a cell or two thick, so a
+    # start in a corridor along a wall is closed in at 0.15 m); blocked moves are remembered as usual
+    tight_reach_m: float = 1.5  # metres around the agent where a tight radius applies: it gets the agent
+    # out of where it stands, and does not open gaps too narrow for the body elsewhere
     collision_radius_m: float = 0.1  # metres: a remembered collision closes the spot the move tried to
     # reach and the move into it, but not the agent's node a full move away (the map's collision strip
     # starts 0.15 m ahead of the agent, so the body radius would close the agent in)
@@ -66,6 +72,8 @@ class FmmConfig:
         for name in ("robot_radius_m", "collision_radius_m"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name} must be non-negative metres, got {getattr(self, name)}")
+        if any(r < 0.0 for r in self.tight_radii_m):
+            raise ValueError(f"tight_radii_m must be non-negative metres, got {self.tight_radii_m}")
         if self.unexplored_cost < 1.0:
             raise ValueError(f"unexplored_cost must be at least 1, got {self.unexplored_cost}")
 
@@ -81,9 +89,16 @@ class LatticeGraph:
 
     @classmethod
     def build(
-        cls, obstacles: np.ndarray, collisions: np.ndarray, frame: GridFrame, cell: Cell, config: FmmConfig
+        cls,
+        obstacles: np.ndarray,
+        collisions: np.ndarray,
+        frame: GridFrame,
+        cell: Cell,
+        config: FmmConfig,
+        tight_radius_m: float | None = None,
     ) -> LatticeGraph:
-        """The graph through the agent's ``cell``: obstacles dilated by the body radius, collision cells by
+        """The graph through the agent's ``cell``: obstacles dilated by the body radius (by
+        ``tight_radius_m`` within ``tight_reach_m`` of the agent, when given), collision cells by
         ``collision_radius_m``.
 
         The agent's own node is always open: it stands there, even when the map put an obstacle inside its
@@ -92,6 +107,12 @@ class LatticeGraph:
         ends where the body fits.
         """
         fits = body_fits(obstacles, frame.cell_m, config.robot_radius_m)
+        if tight_radius_m is not None:
+            X, Z = obstacles.shape
+            i, j = cell
+            r = round(config.tight_reach_m / frame.cell_m)
+            window = (slice(max(i - r, 0), min(i + r + 1, X)), slice(max(j - r, 0), min(j + r + 1, Z)))
+            fits[window] |= body_fits(obstacles[window], frame.cell_m, tight_radius_m)
         fits &= body_fits(collisions, frame.cell_m, config.collision_radius_m)
         lattice = Lattice.through(cell, obstacles.shape, cells_per_step(frame))
         nodes = lattice.sample(fits).copy()
@@ -213,21 +234,15 @@ class FmmNavigator:
         collisions = self.collisions.mask(frame)
         if grids.collisions is not None:
             collisions |= grids.collisions
-        radius = self.config.robot_radius_m
-        graph = LatticeGraph.build(
-            without_body(grids.obstacles, cell, frame.cell_m, radius),
-            without_body(collisions, cell, frame.cell_m, radius),
-            frame,
-            cell,
-            self.config,
-        )
-        goal_nodes = graph.lattice.sample(goal.cells) & graph.nodes
-        if not goal_nodes.any():
+        full = self.config.robot_radius_m
+        for radius in (None, *(r for r in self.config.tight_radii_m if r < full)):
+            planned = self._plan(grids, frame, cell, collisions, goal, radius)
+            if planned is not None:
+                break
+        else:
             return NavDecision(action=None, reason="unreachable", distance_m=math.inf)
-        field = lattice_cost_field(graph, goal_nodes, grids.explored, self.config.unexplored_cost)
+        graph, field = planned
         here = graph.lattice.agent
-        if np.ma.is_masked(field[here]):
-            return NavDecision(action=None, reason="unreachable", distance_m=math.inf)
         cost = field.filled(np.inf)
         ahead = move_costs(graph, cost)
         path = descend(ahead, cost, here)
@@ -238,6 +253,34 @@ class FmmNavigator:
             distance_m=GRID_STEP_M * (len(path) - 1),
             path=tuple(graph.lattice.cell_of(node) for node in path),
         )
+
+    def _plan(
+        self,
+        grids: NavGrids,
+        frame: GridFrame,
+        cell: Cell,
+        collisions: np.ndarray,
+        goal: NavGoal,
+        tight_radius_m: float | None,
+    ) -> tuple[LatticeGraph, np.ma.MaskedArray] | None:
+        """The lattice graph (``tight_radius_m`` near the agent, if given) and its cost field, or None when
+        no goal is reachable."""
+        radius = self.config.robot_radius_m
+        graph = LatticeGraph.build(
+            without_body(grids.obstacles, cell, frame.cell_m, radius),
+            without_body(collisions, cell, frame.cell_m, radius),
+            frame,
+            cell,
+            self.config,
+            tight_radius_m,
+        )
+        goal_nodes = graph.lattice.sample(goal.cells) & graph.nodes
+        if not goal_nodes.any():
+            return None
+        field = lattice_cost_field(graph, goal_nodes, grids.explored, self.config.unexplored_cost)
+        if np.ma.is_masked(field[graph.lattice.agent]):
+            return None
+        return graph, field
 
     def _choose(self, options: np.ndarray, here: float, heading: int, path: list[Cell]) -> str:
         """Forward when it descends nearly as fast as the best move; else a lateral step onto a goal one move

@@ -21,12 +21,24 @@ from symbolic.thor import OBJECT_ACTIONS
 
 CAMERA = {"width": 300, "height": 300, "hfov_deg": 90.0}
 """300x300 frames keep an episode to seconds; TEACh's own are 900x900."""
-KITCHEN_SEED = 2
-"""A generated kitchen whose only Apple, Bread and Knife all lie in the open (not in a closed container)."""
+KITCHEN_ITEMS = (("Apple", 1), ("Bread", 1), ("Knife", 1))
+ENCLOSING = frozenset({"Cabinet", "Drawer", "Fridge", "Microwave", "Safe", "Box"})
+
+
+def _in_the_open(world: World) -> bool:
+    things = [o for name, _ in KITCHEN_ITEMS for o in world.of_type(name)]
+    return len(things) == len(KITCHEN_ITEMS) and not any(
+        world.objects[p].object_type in ENCLOSING for o in things for p in world.parent_chain(o.object_id)
+    )
+
+
+KITCHEN_SEED = next(s for s in range(100) if _in_the_open(generate_kitchen(s, require=KITCHEN_ITEMS)))
+"""The first generated kitchen whose only Apple, Bread and Knife lie in the open (no closed container): the
+tests that use it are about acting, not searching; found, not fixed, so the generator may change."""
 
 
 def kitchen() -> World:
-    return generate_kitchen(KITCHEN_SEED, require=(("Apple", 1), ("Bread", 1), ("Knife", 1)))
+    return generate_kitchen(KITCHEN_SEED, require=KITCHEN_ITEMS)
 
 
 def simulator(world: World) -> Simulator:

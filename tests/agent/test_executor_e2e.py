@@ -3,14 +3,18 @@ each returned action executed in the real simulator, until the agent says it is 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import pytest
-from executor_support import drive, kitchen
+from executor_support import KITCHEN_SEED, drive, kitchen
 from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
+from harness.physics import resting_center
+from harness.world import World, WorldObject
+from harness.worldgen import generate_kitchen
 
 
 @pytest.fixture(scope="module")
@@ -70,3 +74,60 @@ def test_every_answer_names_the_rule_behind_it(client: TestClient) -> None:
     pickup = next(a for a in run.answers if a["action"] == "Pickup")
     assert 0.0 <= pickup["x"] <= 1.0 and 0.0 <= pickup["y"] <= 1.0
     assert pickup["subgoal"] == "Pickup Bread"
+
+
+def _put(world: World, thing: WorldObject, holder: WorldObject) -> None:
+    spot = resting_center(world, thing, holder)
+    assert spot is not None, f"no room for {thing.object_id} in/on {holder.object_id}"
+    thing.center, thing.size = spot
+    thing.parent_id = holder.object_id
+
+
+def _boiling_pot_on_a_burner_whose_knob_is_not_the_nearest() -> tuple[World, WorldObject]:
+    """Kitchen 0 with a pot of water holding a potato on a burner switched by a knob that is not the one
+    nearest to it (which knob heats which burner is not written on the stove, in AI2-THOR either)."""
+    world = generate_kitchen(0, require=(("Potato", 1), ("Pot", 1)))
+    knobs = world.of_type("StoveKnob")
+    burner = next(
+        b
+        for b in world.of_type("StoveBurner")
+        if min(knobs, key=lambda k: math.dist(k.center, b.center)).controls != b.object_id
+    )
+    pot, potato = world.of_type("Pot")[0], world.of_type("Potato")[0]
+    _put(world, pot, burner)
+    _put(world, potato, pot)
+    pot.liquid = "water"
+    return world, potato
+
+
+def test_a_stove_knob_of_unknown_burner_is_found_by_switching_the_row(client: TestClient) -> None:
+    world, potato = _boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
+
+    run = drive(client, world, "ToggleOn StoveKnob, ToggleOff StoveKnob")
+
+    assert run.last["done"], run.last
+    assert run.sim.world.objects[potato.object_id].is_boiled
+    assert not any(knob.is_toggled for knob in run.sim.world.of_type("StoveKnob"))  # all off again
+
+
+def test_the_tomato_put_down_to_slice_is_the_one_sliced(client: TestClient) -> None:
+    """ "Navigate Tomato, Slice Tomato" after putting a tomato on the counter means that tomato, not another:
+    only taking an X up to put it where this one already went means another X."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Tomato", 2), ("Knife", 1)))
+    first, second = world.of_type("Tomato")
+    counter = world.of_type("CounterTop")[0]
+    for thing in (first, second, world.of_type("Knife")[0]):
+        _put(world, thing, counter)  # side by side in the open: either tomato could be meant
+    before = {t.object_id: t.center for t in (first, second)}
+
+    run = drive(
+        client,
+        world,
+        "Navigate Tomato, Pickup Tomato, Navigate CounterTop, Place CounterTop, "
+        "Navigate Knife, Pickup Knife, Navigate Tomato, Slice Tomato",
+        max_steps=600,
+    )
+
+    assert run.last["done"], run.last
+    (left,) = run.sim.world.of_type("Tomato")  # one was sliced into pieces
+    assert left.center == before[left.object_id], "the tomato carried to the counter was not the one sliced"

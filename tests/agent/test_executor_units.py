@@ -226,13 +226,9 @@ def test_a_toggle_that_changes_no_geometry_is_seen_in_the_objects_colour() -> No
     sim = simulator(world)
     (machine,) = world.of_type("CoffeeMachine")
     machine_id = world.instance_ids[machine.object_id]
-    for _ in range(4):
-        frame = sim.observe(noise_seed=5)
-        if (frame.instances == machine_id).sum() > 50:
-            break
-        sim.step("Turn Left")
-    else:
-        pytest.fail("the coffee machine is not in view from the start position")
+    _stand_facing(sim, machine)
+    frame = sim.observe(noise_seed=5)
+    assert (frame.instances == machine_id).sum() > 50, "the coffee machine is not in view"
     before = observation(frame, None)
     machine.is_toggled = True  # what ToggleOn does, without needing the machine within reach
     after = observation(sim.renderer.render(sim.world, noise_seed=6), None)
@@ -309,18 +305,16 @@ def test_dirty_dishes_look_dirty_and_clean_ones_clean() -> None:
     """The same mugs, bowls and plates rendered clean and then dirty (harness.appearance's brown stains)."""
     world = kitchen()
     sim = simulator(world)
-    dishes = {o.object_id for o in world.objects.values() if o.object_type in ("Mug", "Bowl", "Plate", "Cup")}
+    dishes = [o for o in world.objects.values() if o.object_type in ("Mug", "Bowl", "Plate", "Cup")]
     verdicts: dict[bool, list[str]] = {False: [], True: []}
-    for turn in range(4):
-        sim.step("Turn Left")
+    for seed, dish in enumerate(dishes):
+        _stand_facing(sim, dish)  # from the nearest reachable cell, 30° down
         for dirty in (False, True):
-            for object_id in dishes:
-                world.objects[object_id].is_dirty = dirty
-            frame = sim.renderer.render(world, noise_seed=turn)
-            for object_id in dishes:
-                mask = frame.instances == world.instance_ids[object_id]
-                assert frame.rgb is not None
-                verdicts[dirty].append(looks(stained_share(frame.rgb, mask, STAIN), STAIN))
+            dish.is_dirty = dirty
+            frame = sim.renderer.render(world, noise_seed=seed)
+            mask = frame.instances == world.instance_ids[dish.object_id]
+            assert frame.rgb is not None
+            verdicts[dirty].append(looks(stained_share(frame.rgb, mask, STAIN), STAIN))
     seen_clean = [v for v in verdicts[False] if v != "unknown"]
     seen_dirty = [v for v in verdicts[True] if v != "unknown"]
     assert seen_clean and seen_dirty

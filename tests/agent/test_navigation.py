@@ -618,3 +618,20 @@ def test_layers_that_do_not_match_the_frame_are_rejected() -> None:
         )
     with pytest.raises(ValueError, match="explored must be a 2D bool array"):
         NavGrids(obstacles=obstacles, explored=np.ones((50, 50), dtype=np.uint8))
+
+
+def test_fmm_gets_out_of_a_start_along_a_wall_closer_than_the_clearance() -> None:
+    """AI2-THOR lets the body stand 0.125 m from a wall; a plan with the full 0.15 m clearance sees the
+    agent closed in there, so it plans again with a tighter radius around the agent and walks out."""
+    obstacles = room(100)
+    obstacles[:, 97:] = True  # a wall whose face is 0.125 m from the agent's centre
+    obstacles[70:, 70:92] = True  # a counter below: the way out runs along the wall, then down
+    grids, frame, goal = seen(obstacles), frame_for((100, 100)), spot((100, 100), (30, 39))
+    start = pose_at((90, 94), 270)
+
+    full_only = FmmNavigator(FmmConfig(robot_radius_m=0.15, tight_radii_m=()))
+    assert full_only.next_action(grids, frame, start, goal).reason == "unreachable"
+    decision = FmmNavigator(FmmConfig(robot_radius_m=0.15)).next_action(grids, frame, start, goal)
+
+    assert decision.reason == "approach"
+    assert decision.path[1] == (85, 94), decision.path[:3]  # along the wall, toward the open floor
