@@ -151,6 +151,20 @@ def pixel_ray_lengths(camera: Camera) -> np.ndarray:
     return lengths
 
 
+def pixel_axis_distances(depth: np.ndarray, camera: Camera, horizon_deg: float) -> np.ndarray:
+    """float32 [H, W]: horizontal metres from the agent's vertical axis to each pixel's surface.
+
+    AI2-THOR's reach (``visibilityDistance``) is a capsule about that axis, so this, not the distance from
+    the eye, decides what can be clicked. A pixel's world offset is z-depth × (x/z · right + y/z · down +
+    forward); right and the level part of down and forward are orthonormal, so its level length is
+    z-depth × sqrt((x/z)² + (cos h − (y/z) sin h)²) for a camera pitched h down, whatever the yaw.
+    """
+    x_over_z, y_over_z = pixel_ray_slopes(camera)
+    pitch = math.radians(horizon_deg)
+    level = math.cos(pitch) - y_over_z[:, None] * math.sin(pitch)  # [H, 1]
+    return (depth * np.sqrt(x_over_z[None, :] ** 2 + level**2)).astype(np.float32)
+
+
 def camera_position(camera: Camera, pose: Pose) -> np.ndarray:
     """float64 [3]: the optical centre in the world (the eye, camera.height_m above the floor)."""
     return np.array([pose.x, camera.height_m, pose.z], dtype=np.float64)

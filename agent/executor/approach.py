@@ -142,12 +142,9 @@ class Approach(InstanceChoice):
         )
         excluded = self._near_bad_stands(attempt, sub_frame)
         local = np.zeros_like(standable)
-        # the lowest its top may be first (reach to spare), then the highest (a plate on a low table by a
-        # wall can only be reached that way); known floor before any floor
-        tries = [(h, f) for h in (cluster.top_low_m, cluster.top_m) for f in (standable & known, standable)]
-        for height, floor in tries:
+        for floor in (standable & known, standable):  # known floor before any floor
             local = interaction_goal_cells(
-                cluster.cells[window], floor, sub_frame, target_height_m=height, hfov_deg=view.camera.hfov_deg
+                cluster.cells[window], floor, sub_frame, hfov_deg=view.camera.hfov_deg
             )
             local &= ~excluded
             if local.any():

@@ -28,8 +28,9 @@ ClickPurpose = Literal["object", "surface"]
 class ClickConfig:
     """How visible pixels become candidates and how one is chosen."""
 
-    reach_m: float = 1.4  # metres from the camera: AI2-THOR's 1.5 m visibilityDistance less a 0.1 m margin
-    # for depth quantisation and for TEACh's neighbourhood search landing on a farther pixel
+    reach_m: float = 1.4  # metres from the body's vertical axis (``pixel_axis_distances``): AI2-THOR's 1.5 m
+    # visibilityDistance capsule less a 0.1 m margin for depth quantisation and for TEACh's neighbourhood
+    # search landing on a farther pixel
     min_pixels: int = 4  # reachable pixels an instance needs to count as clickable (a sliver is not)
     holding_min_distance_m: float = 0.7  # pixels nearer than this are the held object while holding
     # (HLSM A.3; the same distance keeps it out of the map)
@@ -108,8 +109,9 @@ def visible_instances(
 ) -> list[VisibleInstance]:
     """The instances covering ``mask`` (the wanted type's pixels), nearest first.
 
-    ``distances`` and ``usable`` come from ``pixel_distances`` and ``usable_pixels``; instance id 0 (an
-    unlabelled pixel of the type, as a learned segmenter may leave) counts as one instance.
+    ``distances`` (the reach measure, ``pixel_axis_distances``) and ``usable`` (``usable_pixels``) are per
+    pixel; instance id 0 (an unlabelled pixel of the type, as a learned segmenter may leave) counts as one
+    instance.
     """
     wanted = mask & usable
     if not wanted.any():

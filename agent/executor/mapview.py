@@ -24,7 +24,7 @@ from agent.executor.clicks import (
     usable_pixels,
     visible_instances,
 )
-from agent.geometry import Camera, Pose
+from agent.geometry import Camera, Pose, pixel_axis_distances
 from agent.mapping import SemanticMap
 from agent.navigation.base import NavGrids, body_fits
 from agent.perception.base import Percept
@@ -138,6 +138,7 @@ class SessionMapView:
         self._ignored = ignored  # the executor's list: spots it adds this step apply at once (``forget``)
         self._explore_attempts = dict(explore_attempts)
         self.distances = pixel_distances(percept.depth, camera)  # [H, W] metres from the camera
+        self.reach = pixel_axis_distances(percept.depth, camera, pose.horizon)  # [H, W] from the body's axis
         self.usable = usable_pixels(self.distances, holding, click_config)  # [H, W]
         self._visible: dict[str, list[VisibleInstance]] = {}
         self._clusters: dict[str, list[MapCluster]] = {}
@@ -155,7 +156,7 @@ class SessionMapView:
             found = visible_instances(
                 self.class_mask(object_type),
                 self.percept.instances,
-                self.distances,
+                self.reach,
                 self.usable,
                 self.percept.depth,
                 self.camera,

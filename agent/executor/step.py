@@ -141,7 +141,7 @@ class StepContext(ABC):
         return choose_click(
             chosen,
             view.percept.instances,
-            view.distances,
+            view.reach,
             view.usable,
             view.percept.depth,
             view.camera,

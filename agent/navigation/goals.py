@@ -5,54 +5,42 @@ to act on it, not so close that the body overlaps it, and, for a narrow camera, 
 be brought into view by the 90° turns available.
 
 How close is close enough: AI2-THOR checks its 1.5 m ``visibilityDistance`` with an OverlapCapsule around
-the agent's vertical axis (``collidersWithinCapsuleCastOfAgent``), i.e. nearly a horizontal distance, while
-a stricter simulator may measure from the camera (1.576 m up) to the clicked surface. We keep the 3D
-distance from the camera within reach: for a target top at height h the horizontal reach is
-sqrt(1.5² - (1.576 - h)²), less a margin for 5 cm cells and for the click landing beyond the target's
-nearest cell. Targets so low that no horizontal distance satisfies this (floor objects) get AI2-THOR's
-capsule rule with ``min_reach_m``.
+the agent's vertical axis (``collidersWithinCapsuleCastOfAgent``), i.e. a horizontal distance whatever the
+target's height: an egg on the fridge's bottom shelf is as reachable as a mug on the counter. Our harness
+measures the same way (``harness.reach``). The agent stands within that distance less a margin for 5 cm
+cells, for the click landing beyond the target's nearest cell and for what the clicks keep in hand.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from agent.navigation.base import GridFrame
-from symbolic.thor import CAMERA_HEIGHT_M, INTERACTION_DISTANCE_M
+from symbolic.thor import INTERACTION_DISTANCE_M
 
 
 @dataclass(frozen=True)
 class ReachConfig:
     """Distances that decide which cells count as within reach of a target."""
 
-    interaction_distance_m: float = INTERACTION_DISTANCE_M  # AI2-THOR's visibilityDistance
-    camera_height_m: float = CAMERA_HEIGHT_M  # metres above the floor
-    default_target_height_m: float = 0.75  # metres: tables and counters (0.75-0.95 m in AI2-THOR) hold
-    # most targets, so unknown heights assume the lower of them; gives a 1.15 m horizontal reach
-    reach_margin_m: float = 0.1  # metres kept in hand: two 5 cm cells of map error and click offset
-    min_reach_m: float = 0.6  # metres: floor objects, reachable under AI2-THOR's capsule rule
+    interaction_distance_m: float = INTERACTION_DISTANCE_M  # AI2-THOR's visibilityDistance, horizontal
+    reach_margin_m: float = 0.25  # metres kept in hand: two 5 cm cells of map error, the click landing on
+    # the target's far side, and the clicks' own 0.1 m margin (``ClickConfig.reach_m``)
     min_distance_m: float = 0.3  # metres: the 0.2 m body must not overlap the target, and with the
     # camera looking fully down (60°) a 60° vertical field of view still shows the floor from 0.3 m
     view_margin_deg: float = 5.0  # degrees: keep the target this far inside the image's side edges
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.min_distance_m < self.min_reach_m:
-            raise ValueError(
-                f"need 0 <= min_distance_m < min_reach_m, got {self.min_distance_m}, {self.min_reach_m}"
-            )
+        if not 0.0 <= self.min_distance_m < self.reach_m:
+            raise ValueError(f"need 0 <= min_distance_m < reach, got {self.min_distance_m}, {self.reach_m}")
 
-
-def horizontal_reach_m(target_height_m: float, config: ReachConfig | None = None) -> float:
-    """How far (horizontally) the agent may stand from a target whose top is ``target_height_m`` high."""
-    config = config or ReachConfig()
-    drop = config.camera_height_m - target_height_m
-    slack = config.interaction_distance_m**2 - drop**2
-    reach = math.sqrt(slack) - config.reach_margin_m if slack > 0.0 else 0.0
-    return max(reach, config.min_reach_m)
+    @property
+    def reach_m(self) -> float:
+        """How far (horizontally) the agent may stand from the target's nearest cell."""
+        return self.interaction_distance_m - self.reach_margin_m
 
 
 def interaction_goal_cells(
@@ -60,7 +48,6 @@ def interaction_goal_cells(
     standable: np.ndarray,
     frame: GridFrame,
     *,
-    target_height_m: float | None = None,
     hfov_deg: float | None = None,
     config: ReachConfig | None = None,
 ) -> np.ndarray:
@@ -80,8 +67,7 @@ def interaction_goal_cells(
         )
     if not target_mask.any():
         return np.zeros_like(standable)
-    height = config.default_target_height_m if target_height_m is None else target_height_m
-    reach = horizontal_reach_m(height, config)
+    reach = config.reach_m
     not_target = np.ascontiguousarray(~target_mask).view(np.uint8)  # [X, Z] zero on target cells
     distance_m = cv2.distanceTransform(not_target, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * frame.cell_m
     goal = standable & (distance_m <= reach) & (distance_m >= config.min_distance_m)

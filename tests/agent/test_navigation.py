@@ -15,7 +15,8 @@ import cv2
 import numpy as np
 import pytest
 
-from agent.geometry import Pose
+from agent.executor.clicks import pixel_points
+from agent.geometry import Camera, Pose, pixel_axis_distances, pixel_ray_slopes
 from agent.mapping import GridFrame
 from agent.navigation import NAVIGATORS, make_navigator
 from agent.navigation.base import (
@@ -33,7 +34,7 @@ from agent.navigation.exploration import (
     sample_exploration_position,
 )
 from agent.navigation.fmm import FmmConfig, FmmNavigator, LatticeGraph, lattice_cost_field
-from agent.navigation.goals import ReachConfig, horizontal_reach_m, interaction_goal_cells
+from agent.navigation.goals import ReachConfig, interaction_goal_cells
 from agent.navigation.vin import VinNavigator
 from harness.navgrid import CLEARANCE_M
 from symbolic.thor import AGENT_RADIUS_M, GRID_STEP_M
@@ -420,11 +421,26 @@ def test_vin_gives_up_on_an_enclosed_goal() -> None:
 # ----- interaction goals ------------------------------------------------------------------------------------
 
 
-def test_horizontal_reach_keeps_the_camera_within_interaction_distance() -> None:
+def test_reach_is_a_horizontal_distance_whatever_the_height_as_ai2thor_measures_it() -> None:
     config = ReachConfig()
-    assert horizontal_reach_m(0.9) == pytest.approx(math.sqrt(1.5**2 - (1.576 - 0.9) ** 2) - 0.1)
-    assert horizontal_reach_m(0.0) == config.min_reach_m  # floor objects: AI2-THOR's capsule rule
-    assert horizontal_reach_m(1.8) == pytest.approx(math.sqrt(1.5**2 - 0.224**2) - 0.1)
+    assert config.reach_m == pytest.approx(1.5 - config.reach_margin_m)
+    assert ReachConfig(reach_margin_m=0.1).reach_m == pytest.approx(1.4)
+    with pytest.raises(ValueError, match="min_distance_m"):
+        ReachConfig(min_distance_m=1.3)
+
+
+def test_pixel_axis_distances_are_level_distances_from_the_body_axis() -> None:
+    """A flat floor seen from the camera: every pixel's level distance is its world point's distance from
+    (x, z) of the agent, at any pitch."""
+    camera = Camera(60, 40, 90.0)
+    for horizon in (0.0, 30.0, 60.0):
+        pose = Pose(1.0, 2.0, 90.0, horizon)
+        x_over_z, y_over_z = pixel_ray_slopes(camera)
+        rows, cols = np.mgrid[0:40, 0:60]
+        depth = np.full((40, 60), 2.0, dtype=np.float32)
+        points = pixel_points(rows.ravel(), cols.ravel(), depth, camera, pose)  # [N, 3]
+        expected = np.hypot(points[:, 0] - pose.x, points[:, 2] - pose.z).reshape(40, 60)
+        assert np.allclose(pixel_axis_distances(depth, camera, horizon), expected, atol=1e-5)
 
 
 def test_interaction_goal_cells_ring_the_target_within_reach() -> None:
@@ -433,8 +449,8 @@ def test_interaction_goal_cells_ring_the_target_within_reach() -> None:
     table[55:65, 55:65] = True  # 0.5 m table in the middle of the room
     obstacles |= table
     standable = body_fits(obstacles, CELL_M, AGENT_RADIUS_M)
-    goal = interaction_goal_cells(table, standable, frame_for((120, 120)), target_height_m=0.75)
-    reach = horizontal_reach_m(0.75)
+    goal = interaction_goal_cells(table, standable, frame_for((120, 120)))
+    reach = ReachConfig().reach_m
     ii, jj = np.nonzero(goal)
     dx = np.maximum(np.maximum(55 - ii, ii - 64), 0)  # cells to the table along x
     dz = np.maximum(np.maximum(55 - jj, jj - 64), 0)
