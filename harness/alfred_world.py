@@ -166,6 +166,10 @@ FRIDGE_HEADROOM_M = 0.15
 MAX_TOP_M = 2.35
 """Tops stay below the reach rule's 2.4 m view limit (invariants.VIEW_TOP_MAX_M)."""
 
+RIM_SLAB_M = 0.3
+"""A piece lying lower than this above a basin's rim covers its opening; a wall cabinet higher up leaves
+room to look in."""
+
 WALL_HEIGHT_MIN_M = 2.6
 CEILING_GAP_M = 0.1
 """Rooms are WALL_HEIGHT_MIN_M high, or this much above their tallest piece."""
@@ -696,8 +700,9 @@ def _basin_piece(spot: ReceptacleSpot, b: _Build, facing: int) -> _Piece:
 
 def _split_decks(b: _Build) -> None:
     """Each sink or bathtub piece becomes its basin (front) and its deck (back, the catalog's share of the
-    depth). A sink standing on the floor (no cabinet under it) becomes a basin on its Sink pedestal instead,
-    the deck strip behind the basin left for the faucet."""
+    depth). A sink that had to be stretched down to stand on something (the floor, or a low cabinet under
+    it) becomes a basin of the catalog's depth on its Sink pedestal instead, the deck strip behind the basin
+    left for the faucet: a basin stretched half a metre deep would hide what lies in it from every pose."""
     for piece in list(b.pieces):
         if piece.object_id not in b.decks:
             continue
@@ -707,8 +712,8 @@ def _split_decks(b: _Build) -> None:
         depth = piece.hi[axis] - piece.lo[axis]
         deck = dataclasses.replace(piece.copy(), object_id=deck_id, object_type=deck_type)
         split = (piece.lo[axis] + share * depth) if sign > 0 else (piece.hi[axis] - share * depth)
-        if deck_type == "Sink" and piece.lo[1] <= EPS_M:
-            basin_height = b.size_of("SinkBasin")[1]
+        basin_height = b.size_of("SinkBasin")[1]
+        if deck_type == "Sink" and piece.hi[1] - piece.lo[1] > basin_height + EPS_M:
             deck.hi[1] = piece.lo[1] = piece.hi[1] - basin_height
         elif sign > 0:
             deck.hi[axis] = split
@@ -719,6 +724,18 @@ def _split_decks(b: _Build) -> None:
         else:
             piece.hi[axis] = split
         b.pieces.append(deck)
+        _uncover(b, piece)
+
+
+def _uncover(b: _Build, basin: _Piece) -> None:
+    """Cut back what lies on a basin's rim over its opening (up to RIM_SLAB_M above it): AI2-THOR's counter
+    top has the sink cut out of it, but a box cannot, and a counter slab over the basin hides all in it."""
+    above = dataclasses.replace(basin.copy(), lo=[basin.lo[0], basin.hi[1], basin.lo[2]])
+    above.hi[1] = basin.hi[1] + RIM_SLAB_M
+    for piece in list(b.pieces):
+        if piece is not basin and piece.overlaps(above) and not _cut(piece, above):
+            b.dropped.append(f"{piece.object_id}: covers the basin {basin.object_id}")
+            b.pieces.remove(piece)
 
 
 def _planned_spots(b: _Build) -> list[ReceptacleSpot]:

@@ -28,6 +28,8 @@ from harness.alfred_data import (
 )
 from harness.alfred_world import AlfredWorldReport, alfred_task_world_pairs, alfred_world, build_alfred_world
 from harness.camera import CameraSpec
+from harness.catalog import load_catalog
+from harness.expert.navigation import SightOracle
 from harness.invariants import check_world
 from harness.navgrid import reachable_grid
 from harness.render import Renderer
@@ -247,6 +249,39 @@ def test_objects_keep_alfred_ids_and_receptacles(
     assert potato.parent_id == "Fridge|-02.10|+00.00|+01.09"
     assert shaker.parent_id == "Drawer|-01.56|+00.33|-00.20"
     assert not world.objects[potato.parent_id].is_open and not world.objects[shaker.parent_id].is_open
+
+
+@pytest.mark.parametrize(
+    "task_id",
+    [
+        "trial_T20190908_212725_836398",  # FloorPlan19: a counter slab lay over the basin, 46 cm deep
+        "trial_T20190908_140701_251653",  # FloorPlan423: a bathroom counter over the basin
+    ],
+)
+def test_what_lies_in_a_sink_basin_shows_from_above(task_id: str, shared_data_dir: Path) -> None:
+    """A basin is as deep as the catalog's and nothing lies over its opening (AI2-THOR's counters have the
+    sink cut out), so what ALFRED left in it, and what is put in it to be washed, can be seen and reached."""
+    world = alfred_world(find_trajectory(task_id, shared_data_dir), shared_data_dir)
+    depth = load_catalog().nominal_size("SinkBasin")[1]
+    camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
+    sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
+    basins = world.of_type("SinkBasin")
+    assert basins
+    for basin in basins:
+        assert basin.size[1] <= depth + 1e-6, basin
+        (x0, _, z0), (x1, top, z1) = basin.min_corner, basin.max_corner
+        covering = [
+            o.object_id
+            for o in world.objects.values()
+            if o.bottom >= top - 1e-3
+            and o.object_type != "Faucet"  # its spout overhangs the basin, in AI2-THOR too
+            and basin.object_id not in world.parent_chain(o.object_id)
+            and min(x1, o.max_corner[0]) - max(x0, o.min_corner[0]) > 0.01
+            and min(z1, o.max_corner[2]) - max(z0, o.min_corner[2]) > 0.01
+            and o.bottom < top + 0.5
+        ]
+        assert not covering, (basin.object_id, covering)
+        assert sight.can_act_on(world, basin.object_id, thorough=True), basin.object_id
 
 
 def test_every_pose_becomes_an_object(sample: list[Built]) -> None:
