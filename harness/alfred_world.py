@@ -98,6 +98,13 @@ MAX_RETREAT_M = 0.35
 MAX_ADVANCE_M = 0.5
 """Farthest a piece's front is brought forward to meet the walkway (module docstring, 1)."""
 
+MAX_SLIDE_M = 0.25
+"""Farthest a rigid piece (a fridge) slides sideways to meet the walkway (``_advance``)."""
+SLIDE_STEP_M = 0.05
+_SLIDES = tuple(
+    dict.fromkeys(k * SLIDE_STEP_M * s for k in range(round(MAX_SLIDE_M / SLIDE_STEP_M) + 1) for s in (1, -1))
+)
+
 RELOCATE_M = 0.6
 """Farthest a piece that fits nowhere near its id's position is moved to a free spot."""
 
@@ -448,6 +455,19 @@ def _violators(lo: list[float], hi: list[float], points: np.ndarray, clearance: 
         & (points[:, 1] < hi[2] + c)
     )
     return points[near]
+
+
+def _frontal_violators(lo: list[float], hi: list[float], axis: int, points: np.ndarray) -> np.ndarray:
+    """[V, 2] reachable points a piece advancing along ``axis`` must keep clear of: FURNITURE_CLEARANCE_M in
+    front of it, but only the navigation grid's CLEARANCE_M beside it. A point diagonally off a fridge's
+    corner, 19 cm from where its front would be, held the fridge back, and the unlisted strip left in front
+    of its door became a wall that hid everything in it."""
+    side = 2 - axis
+    ahead = (points[:, axis // 2] > lo[axis] - FURNITURE_CLEARANCE_M) & (
+        points[:, axis // 2] < hi[axis] + FURNITURE_CLEARANCE_M
+    )
+    beside = (points[:, side // 2] > lo[side] - CLEARANCE_M) & (points[:, side // 2] < hi[side] + CLEARANCE_M)
+    return points[ahead & beside]
 
 
 def _facing(x: float, z: float, points: np.ndarray, fallback: tuple[float, float]) -> int:
@@ -1154,42 +1174,67 @@ def _keep_walkway_clear(b: _Build) -> None:
 
 def _advance(b: _Build) -> None:
     """Bring each floor piece's front up to AGENT_RADIUS_M from the walkway (by MAX_ADVANCE_M at most): the
-    floor plan says nothing stands between, and a gap would be floor the agent could walk on."""
+    floor plan says nothing stands between, and a gap would be floor the agent could walk on. Rigid pieces
+    (fridges, sinks, tubs) move instead of stretching, and may slide sideways by up to MAX_SLIDE_M to do it:
+    an AI2-THOR id's position is the object's pivot, not its centre, and a fridge held back by a walkway
+    point off one of its corners left an unlisted strip in front of its door, which became a wall."""
     for piece in sorted(b.pieces, key=_priority):
         if piece.lo[1] >= BLOCKING_BELOW_M or piece.mount == "wall":
             continue
         fx, fz = _DIRECTIONS[piece.facing]
         axis, sign = (0, fx) if fx else (2, fz)
-        front = piece.hi[axis] if sign > 0 else piece.lo[axis]
-        lo, hi = list(piece.lo), list(piece.hi)
-        if sign > 0:
-            hi[axis] = front + MAX_ADVANCE_M
+        rigid = _priority(piece)[0] == 0
+        slides = _SLIDES if rigid else (0.0,)
+        feasible = [
+            (gain, -abs(slide), slide)
+            for slide in slides
+            if (gain := _advance_room(b, piece, axis, sign, slide)) is not None
+        ]
+        gain, _, slide = max(feasible)  # sliding by 0 is always feasible
+        if gain <= 0.0:
+            continue
+        side = 2 - axis
+        piece.lo[side] += slide
+        piece.hi[side] += slide
+        if rigid:
+            piece.lo[axis] += sign * gain
+            piece.hi[axis] += sign * gain
+        elif sign > 0:
+            piece.hi[axis] += gain
         else:
-            lo[axis] = front - MAX_ADVANCE_M
-        limit = front + sign * MAX_ADVANCE_M
-        bad = _violators(lo, hi, b.reachable, FURNITURE_CLEARANCE_M)
-        if len(bad):
-            coord = bad[:, axis // 2]
-            near = (
-                (coord.min() - FURNITURE_CLEARANCE_M) if sign > 0 else (coord.max() + FURNITURE_CLEARANCE_M)
-            )
-            limit = min(limit, near - CUT_MARGIN_M) if sign > 0 else max(limit, near + CUT_MARGIN_M)
-        for other in b.pieces:
-            if other is piece:
-                continue
-            probe = _Piece("", "", lo, hi, 0, "floor", piece.pivot)
-            if probe.overlaps(other):
-                edge = other.lo[axis] if sign > 0 else other.hi[axis]
-                limit = min(limit, edge) if sign > 0 else max(limit, edge)
-        if (limit - front) * sign > 0:
-            rigid = _priority(piece)[0] == 0  # fridges, sinks and tubs keep their size and move instead
-            if rigid:
-                piece.lo[axis] += limit - front
-                piece.hi[axis] += limit - front
-            elif sign > 0:
-                piece.hi[axis] = limit
-            else:
-                piece.lo[axis] = limit
+            piece.lo[axis] -= gain
+
+
+def _advance_room(b: _Build, piece: _Piece, axis: int, sign: int, slide: float) -> float | None:
+    """How far the piece's front can come forward (metres, ≥ 0) after sliding it ``slide`` metres sideways;
+    None if the slide itself is not free (it would overlap a piece or crowd a walkway point)."""
+    side = 2 - axis
+    lo, hi = list(piece.lo), list(piece.hi)
+    lo[side] += slide
+    hi[side] += slide
+    if slide:
+        moved = _Piece("", "", lo, hi, 0, "floor", piece.pivot)
+        if len(_violators(lo, hi, b.reachable, CLEARANCE_M)) or any(
+            moved.overlaps(o) for o in b.pieces if o is not piece
+        ):
+            return None
+    front = hi[axis] if sign > 0 else lo[axis]
+    if sign > 0:
+        hi[axis] = front + MAX_ADVANCE_M
+    else:
+        lo[axis] = front - MAX_ADVANCE_M
+    limit = front + sign * MAX_ADVANCE_M
+    bad = _frontal_violators(lo, hi, axis, b.reachable)
+    if len(bad):
+        coord = bad[:, axis // 2]
+        near = (coord.min() - FURNITURE_CLEARANCE_M) if sign > 0 else (coord.max() + FURNITURE_CLEARANCE_M)
+        limit = min(limit, near - CUT_MARGIN_M) if sign > 0 else max(limit, near + CUT_MARGIN_M)
+    probe = _Piece("", "", lo, hi, 0, "floor", piece.pivot)
+    for other in b.pieces:
+        if other is not piece and probe.overlaps(other):
+            edge = other.lo[axis] if sign > 0 else other.hi[axis]
+            limit = min(limit, edge) if sign > 0 else max(limit, edge)
+    return max((limit - front) * sign, 0.0)
 
 
 # ------------------------------------------------------------------------------------------------ fixtures

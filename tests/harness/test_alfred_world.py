@@ -284,6 +284,31 @@ def test_what_lies_in_a_sink_basin_shows_from_above(task_id: str, shared_data_di
         assert sight.can_act_on(world, basin.object_id, thorough=True), basin.object_id
 
 
+@pytest.mark.parametrize(
+    "task_id",
+    [
+        "trial_T20190908_042713_075616",  # FloorPlan1: a walkway point off a corner held the fridge back
+        "trial_T20190909_012524_159092",  # FloorPlan18: it had to slide sideways to meet the walkway
+    ],
+)
+def test_a_fridge_door_opens_onto_floor_and_what_is_in_it_shows(task_id: str, shared_data_dir: Path) -> None:
+    """The strip in front of a fridge that ALFRED's grid does not list used to become a wall right before its
+    door, hiding everything in it; the fridge now comes forward to the walkway."""
+    world = alfred_world(find_trajectory(task_id, shared_data_dir), shared_data_dir)
+    (fridge,) = world.of_type("Fridge")
+    fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[fridge.facing]
+    (x0, _, z0), (x1, _, z1) = fridge.min_corner, fridge.max_corner
+    for t in (0.1, 0.5, 0.9):
+        x = (x1 + 0.1 if fx > 0 else x0 - 0.1) if fx else x0 + t * (x1 - x0)
+        z = (z1 + 0.1 if fz > 0 else z0 - 0.1) if fz else z0 + t * (z1 - z0)
+        assert world.room.contains(x, z), (x, z)
+    camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
+    sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
+    inside = world.children(fridge.object_id)
+    hidden = [o.object_id for o in inside if not sight.can_act_on(world, o.object_id, thorough=True)]
+    assert not hidden, hidden
+
+
 def test_every_pose_becomes_an_object(sample: list[Built]) -> None:
     """Each object pose is an object named by AI2-THOR's id for that position (a pose listed twice, twice)."""
     for built in sample:
