@@ -12,8 +12,8 @@ target, movable receptacle, and whether the object is to be sliced). Each task t
   a bowl on the counter is on the counter;
 - heated, cooled and cleaned are the world's ``is_heated``, ``is_cooled`` and ``is_cleaned`` (ALFRED's
   env keeps sets of objects heated in a microwave, chilled in the fridge and washed in the sink);
-- "the lamp is visible" is approximated by the lamp being within AI2-THOR's visibility distance of the
-  camera (1.5 m); the field of view is not checked.
+- "the lamp is visible" is approximated by the lamp being within AI2-THOR's visibility distance (1.5 m
+  from the agent's vertical axis, ``harness.reach``); the field of view is not checked.
 """
 
 from __future__ import annotations
@@ -144,12 +144,12 @@ class _Scene:
     def held_id(self) -> str | None:
         return self.world.agent.held
 
-    def camera_distance(self, obj: WorldObject) -> float:
-        """Metres from the camera to the nearest point of the object's box."""
+    def reach_distance(self, obj: WorldObject) -> float:
+        """Metres from the agent's vertical axis to the object's box, as AI2-THOR measures visibility
+        (``harness.reach``: a cylinder about the agent, not a sphere about the camera)."""
         agent = self.world.agent
-        eye = (agent.x, agent.camera_height, agent.z)
-        nearest = [min(max(e, lo), hi) for e, lo, hi in zip(eye, obj.min_corner, obj.max_corner, strict=True)]
-        return math.dist(eye, nearest)
+        (x0, _, z0), (x1, _, z1) = obj.min_corner, obj.max_corner
+        return math.hypot(max(x0 - agent.x, agent.x - x1, 0.0), max(z0 - agent.z, agent.z - z1, 0.0))
 
 
 def _sliced_condition(task: AlfredTask, pickupables: list[WorldObject], needed: int) -> list[_Condition]:
@@ -207,7 +207,7 @@ def _look_at_obj_in_light(task: AlfredTask, scene: _Scene) -> list[_Condition]:
     lamps = scene.named(task.toggle_target, "toggleable")
     pickupables = scene.named(task.target_name, "pickupable")
     holding = scene.held_id() in {p.object_id for p in pickupables}
-    lit = any(t.is_toggled and scene.camera_distance(t) <= INTERACTION_DISTANCE_M for t in lamps)
+    lit = any(t.is_toggled and scene.reach_distance(t) <= INTERACTION_DISTANCE_M for t in lamps)
     return [
         *_sliced_condition(task, pickupables, 1),
         _Condition(f"A {task.target_name} needs to be in hand.", int(holding)),

@@ -139,6 +139,18 @@ def test_look_at_obj_needs_the_lamp_nearby() -> None:
     assert counts(task, house.world(held=clock)) == (1, 2, False)
 
 
+def test_a_lamp_on_the_floor_beside_the_agent_counts_as_nearby() -> None:
+    """AI2-THOR's visibility distance is a 1.5 m cylinder about the agent: a lamp on the floor 0.4 m away
+    is over 1.5 m from the eye, yet visible (the expert stood there and the check said it was not)."""
+    house = House()
+    clock = house.add("AlarmClock")
+    lamp = house.add("FloorLamp", x=0.625, is_toggled=True)
+    house.objects[lamp].center = (0.625, 0.05, 1.125)
+    house.objects[lamp].size = (0.2, 0.1, 0.2)
+    task = AlfredTask("look_at_obj_in_light", "AlarmClock", toggle_target="FloorLamp")
+    assert counts(task, house.world(held=clock)) == (2, 2, True)
+
+
 @pytest.mark.parametrize(
     ("task_type", "state", "word"),
     [
