@@ -671,7 +671,8 @@ def _nominal_pieces(b: _Build) -> dict[str, tuple[_Piece, float, float]]:
     for spot in b.plan.receptacles:
         x, y, z = spot.position
         w, h, d = b.size_of(spot.object_type)
-        if y >= UPPER_UNIT_MIN_Y_M and spot.object_type in _WALL_UNITS:  # over furniture: face the planner
+        over_furniture = y >= UPPER_UNIT_MIN_Y_M and spot.object_type in _WALL_UNITS
+        if over_furniture or spot.object_type == "Fridge":  # its door faces where ALFRED's planner opens it
             facing = (round(spot.pose.rotation / 90) * 90 + 180) % 360
         else:
             facing = _facing(x, z, b.reachable, (spot.pose.x - x, spot.pose.z - z))

@@ -309,6 +309,22 @@ def test_a_fridge_door_opens_onto_floor_and_what_is_in_it_shows(task_id: str, sh
     assert not hidden, hidden
 
 
+def test_every_fridge_door_faces_where_alfreds_planner_opens_it(
+    valid_seen: tuple[dict[str, Any], ...], shared_data_dir: Path
+) -> None:
+    """The planner stands before a fridge's door to open it (FloorPlan21's fridge faced a wall 45 cm away,
+    FloorPlan4's the wrong way: what was chilled in them could not be seen)."""
+    plans = {t["scene"]["floor_plan"]: t for t in valid_seen}
+    for name, traj in sorted(plans.items()):
+        spots = [s for s in load_floor_plan(name, shared_data_dir).receptacles if s.object_type == "Fridge"]
+        if not spots:
+            continue
+        world = alfred_world(traj, shared_data_dir)
+        for spot in spots:
+            expected = (round(spot.pose.rotation / 90) * 90 + 180) % 360
+            assert world.objects[spot.object_id].facing == expected, (name, spot.object_id)
+
+
 def test_every_pose_becomes_an_object(sample: list[Built]) -> None:
     """Each object pose is an object named by AI2-THOR's id for that position (a pose listed twice, twice)."""
     for built in sample:
