@@ -14,7 +14,7 @@ import math
 from agent.executor.clicks import VisibleInstance
 from agent.executor.looks import Looks, looks, stained_share
 from agent.executor.mapview import MapCluster
-from agent.executor.state import Attempt, Point
+from agent.executor.state import Attempt, Box, Point, in_box
 from agent.executor.step import StepContext
 from symbolic.predicates import SPREAD_OUT_RECEPTACLES
 from symbolic.subgoals import Subgoal, SubgoalAction
@@ -62,6 +62,33 @@ class InstanceChoice(StepContext):
             return True
         destination = next((s for s in upcoming[1:] if s.action in (A.PICKUP, A.PLACE)), None)
         return destination is not None and destination.action is A.PLACE and destination.obj in went
+
+    def _second_rate(self, obj: str, x: float, z: float) -> bool:
+        """An instance that looks the opposite of what the plan needs (a dirty bowl to serve slices in): it
+        will do only once a short look around found no better one (``Attempt.accept_second``). Not applied
+        inside a container the plan opened for X: the plan says which one, and warm light inside a
+        microwave fools the stain cue."""
+        return self._look_mismatch(obj, x, z) >= 1.0
+
+    def _second_rate_known(self, obj: str, attempt: Attempt) -> bool:
+        """Whether a second-rate instance is in view or mapped (one to fall back on)."""
+        visible = any(self._second_rate(obj, v.point[0], v.point[2]) for v in self.view.clickable(obj))
+        return visible or any(self._second_rate(obj, c.x, c.z) for c in self.view.clusters(obj))
+
+    def _hint_box(self, obj: str, attempt: Attempt) -> Box | None:
+        """The box of the container the plan just opened for X ("Open Fridge, Navigate Bowl, Pickup Bowl"),
+        while it was not looked into yet: until then only an X inside it is the X meant."""
+        if attempt.hint_checked:
+            return None
+        for index in range(self.pointer - 1, -1, -1):
+            earlier = self.plan[index]
+            if earlier.action is A.NAVIGATE:
+                continue
+            kind = earlier.obj
+            if earlier.action is A.OPEN and kind in self.onto.enclosing and self.onto.accepts(kind, obj):
+                return self.state.memory.opened_box.get(kind)
+            return None
+        return None
 
     def _anchor(self, obj: str) -> tuple[float, float] | None:
         """Where the instance this subgoal means should be: where the agent last dealt with it (or with
@@ -184,6 +211,11 @@ class InstanceChoice(StepContext):
         on = self.state.memory.switched_on.get(obj, [])
         if attempt.subgoal.action is A.TOGGLE_OFF and on:
             candidates = [v for v in candidates if self._switched(v.point, on)]
+        box = self._hint_box(obj, attempt)
+        if box is not None:
+            candidates = [v for v in candidates if in_box(v.point, box)]
+        elif not attempt.accept_second:
+            candidates = [v for v in candidates if not self._second_rate(obj, v.point[0], v.point[2])]
         remembered = self._remembered(obj, attempt)
         if remembered is not None:
             return next((v for v in candidates if v.instance_id == remembered), None)
@@ -242,6 +274,7 @@ class InstanceChoice(StepContext):
         """Mapped instances of ``obj`` not found unreachable this subgoal, in order of preference; with an
         anchor, a cluster holding it is cut down to the part around it (one cabinet of a row)."""
         anchor = self._anchor(obj)
+        box = self._hint_box(obj, attempt)
         clusters = []
         for cluster in self.view.clusters(obj):
             if anchor is not None and cluster.distance_to(*anchor) <= self.cfg.anchor_radius_m:
@@ -249,6 +282,12 @@ class InstanceChoice(StepContext):
             if any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
                 continue
             if self._switched((cluster.x, 0.0, cluster.z), attempt.switched):
+                continue
+            if box is not None:
+                cluster = cluster.within(box)
+                if cluster is None:
+                    continue
+            elif not attempt.accept_second and self._second_rate(obj, cluster.x, cluster.z):
                 continue
             on = self.state.memory.switched_on.get(obj, [])
             point = (cluster.x, 0.0, cluster.z)

@@ -171,9 +171,13 @@ class _Run(ContainerSearch, MotionSafety):
                 f"Collision: {outcome.action} just failed; random feasible {action} instead (Alg. 3 l. 81)"
             )
         click = outcome.click if action == outcome.action else None
-        colour = None
+        colour = box = None
         if click is not None:
             colour = instance_colour(self.inputs.observation, self.inputs.digest, click.instance_id)
+            visit = self.state.attempt.search.visit if self.state.attempt is not None else None
+            kind = visit.object_type if outcome.purpose == "search" and visit is not None else subgoal.obj
+            if action == "Open" and kind in self.onto.enclosing:
+                box = self._container_box(kind, click)
         self.state.pending = Pending(
             action=action,
             purpose=outcome.purpose if action == outcome.action else "motion",
@@ -181,6 +185,7 @@ class _Run(ContainerSearch, MotionSafety):
             pose=self.pose,
             click=click,
             colour=colour,
+            box=box,
         )
         x, y = (click.x, click.y) if click is not None else (None, None)
         return self._decision(action, x, y, reason, subgoal=subgoal, path=outcome.path)
@@ -243,6 +248,8 @@ class _Run(ContainerSearch, MotionSafety):
             point, instance_id = (click.point, click.instance_id) if click is not None else (None, None)
             if click is not None and self._more_switches(subgoal, attempt, click, changed=True):
                 return
+            if pending.action == "Open" and pending.box is not None:
+                self.state.memory.opened_box[subgoal.obj] = pending.box
             self._complete(subgoal, f"Success({pending.action} {subgoal.obj})", point, instance_id)
             return
         attempt.failures += 1
@@ -324,6 +331,7 @@ class _Run(ContainerSearch, MotionSafety):
             memory.where.pop(obj, None)
         if subgoal.action in (A.PICKUP, A.OPEN) and instance_id is not None:
             memory.instance[obj] = instance_id
+
         self.state.belief = belief.apply(subgoal, self.onto)
         self.state.attempt = None
         self.pointer += 1

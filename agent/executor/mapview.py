@@ -47,6 +47,10 @@ class IgnoredSpot:
         return math.hypot(x - self.x, z - self.z) <= self.radius_m
 
 
+WorldBox = tuple[tuple[float, float, float], tuple[float, float, float]]
+"""World (min corner, max corner), metres."""
+
+
 @dataclass(frozen=True, eq=False)
 class MapCluster:
     """One connected region of a type's map cells: a candidate instance to walk to (adjacent instances of
@@ -72,6 +76,17 @@ class MapCluster:
         """Metres from a world point to the cluster's nearest cell centre."""
         return float(np.sqrt((self.xs - x) ** 2 + (self.zs - z) ** 2).min())
 
+    def within(self, box: WorldBox, margin_m: float = 0.1) -> MapCluster | None:
+        """The part of the cluster inside a world box (a container's extent), or None: cells within its
+        x-z rectangle, and the cluster's lowest top no higher than the box's top (the mug on the counter
+        above a cabinet is not in the cabinet)."""
+        (x0, y0, z0), (x1, _, z1) = box[0], box[1]
+        inside = (self.xs >= x0 - margin_m) & (self.xs <= x1 + margin_m)
+        inside &= (self.zs >= z0 - margin_m) & (self.zs <= z1 + margin_m)
+        if not inside.any() or self.top_low_m > box[1][1] + margin_m or self.top_m < y0 - margin_m:
+            return None
+        return self if inside.all() else self._part(inside)
+
     def around(self, x: float, z: float, radius_m: float) -> MapCluster | None:
         """The part of the cluster within ``radius_m`` of a world point (one cabinet of a row), or None."""
         near = (self.xs - x) ** 2 + (self.zs - z) ** 2 <= radius_m**2
@@ -79,6 +94,10 @@ class MapCluster:
             return None
         if near.all():
             return self
+        return self._part(near)
+
+    def _part(self, near: np.ndarray) -> MapCluster:
+        """The cluster cut down to the cells where ``near`` (bool [N]) holds."""
         cells = np.zeros_like(self.cells)
         cells[self.ii[near], self.jj[near]] = True
         xs, zs = self.xs[near], self.zs[near]

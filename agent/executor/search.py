@@ -16,10 +16,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from agent.executor.approach import Approach
-from agent.executor.clicks import pixel_points
+from agent.executor.clicks import Click, pixel_points
 from agent.executor.config import SearchConfig
 from agent.executor.mapview import MapCluster, SessionMapView
-from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState
+from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState, in_box
 from agent.executor.step import Act, GiveUp, Outcome
 from agent.navigation.base import NavGoal, Navigator
 from agent.navigation.exploration import ExploreDecision, FrontierExplorer
@@ -27,6 +27,9 @@ from symbolic.ontology import Ontology
 from symbolic.subgoals import SubgoalAction
 
 A = SubgoalAction
+
+OPENED_PART_M = 0.6
+"""Metres around the click of an Open that belong to the container opened (one fridge, one cabinet door)."""
 
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
@@ -58,7 +61,7 @@ def searched_box(point: Point, config: SearchConfig) -> Box:
 
 def was_searched(point: Point, checked: list[Box], margin_m: float = 0.1) -> bool:
     """Whether a container part lies in a container already looked into (its box, with a margin)."""
-    return any(all(lo[k] - margin_m <= point[k] <= hi[k] + margin_m for k in range(3)) for lo, hi in checked)
+    return any(in_box(point, box, margin_m) for box in checked)
 
 
 def container_parts(
@@ -170,6 +173,11 @@ class ContainerSearch(Approach):
         self.searches += 1
         if self.searches > MAX_SEARCHES_PER_STEP:
             return GiveUp(f"search({obj}): no way to any place left to look")
+        looked = search.exhausted or search.explore_steps >= cfg.better_explore_steps
+        if not attempt.accept_second and looked and self._second_rate_known(obj, attempt):
+            attempt.accept_second = True
+            self.events.append(f"search({obj}): nothing better in sight; taking one that looks wrong for it")
+            return self._approach(obj, attempt)
         if not search.hinted:
             search.hinted = True
             self._take_hint(obj, search)
@@ -219,8 +227,15 @@ class ContainerSearch(Approach):
         )
 
     def _found(self, obj: str, attempt: Attempt) -> bool:
-        """X can be clicked now, or is mapped somewhere the navigator did not fail to reach this subgoal."""
-        return bool(self.view.clickable(obj) or self._clusters(obj, attempt))
+        """X can be clicked now, or is mapped somewhere the navigator did not fail to reach this subgoal (in
+        the container the plan opened for it, while that is not looked into yet)."""
+        clickable = self.view.clickable(obj)
+        box = self._hint_box(obj, attempt)
+        if box is not None:
+            clickable = [v for v in clickable if in_box(v.point, box)]
+        elif not attempt.accept_second:
+            clickable = [v for v in clickable if not self._second_rate(obj, v.point[0], v.point[2])]
+        return bool(clickable or self._clusters(obj, attempt))
 
     def _take_hint(self, obj: str, search: SearchState) -> None:
         """If the plan's last interaction opened a container that accepts X, look into that one first."""
@@ -274,6 +289,8 @@ class ContainerSearch(Approach):
             look = self._look_into(obj, attempt, visit)
             if look is not None:
                 return look
+            if visit.hinted:
+                attempt.hint_checked = True  # not in there after all: any X will do now
             visit.stage, visit.looks = "close", 0
         action = "Open" if visit.stage == "open" else "Close"
         target = visit.opened_at or visit.target
@@ -443,6 +460,24 @@ class ContainerSearch(Approach):
         lo, hi = points.min(axis=0), points.max(axis=0)
         return (float(lo[0]), float(lo[1]), float(lo[2])), (float(hi[0]), float(hi[1]), float(hi[2]))
 
+    def _container_box(self, kind: str, click: Click) -> Box | None:
+        """The extent of a container about to be opened: its pixels in this frame, joined with its mapped
+        cells near the click (a fridge at the edge of the view shows only a sliver)."""
+        boxes = []
+        seen = self._extent_of(click.instance_id)
+        if seen is not None:
+            boxes.append(seen)
+        body = self._container_body(kind, click.point)
+        part = body.around(click.point[0], click.point[2], OPENED_PART_M) if body is not None else None
+        if part is not None:
+            lo = (float(part.xs.min()), 0.0, float(part.zs.min()))
+            boxes.append((lo, (float(part.xs.max()), part.top_m, float(part.zs.max()))))
+        if not boxes:
+            return None
+        lo = tuple(min(b[0][k] for b in boxes) for k in range(3))
+        hi = tuple(max(b[1][k] for b in boxes) for k in range(3))
+        return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
     def _visited_box(self, visit: ContainerVisit) -> Box:
         """What a finished visit rules out: the opened instance's extent, else the region around its part."""
         if visit.extent is None and visit.instance_id is not None:
@@ -471,6 +506,8 @@ class ContainerSearch(Approach):
                 visit.instance_id = pending.click.instance_id
                 search.containers_opened += 1
                 self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
+                if pending.box is not None:
+                    self.state.memory.opened_box[visit.object_type] = pending.box
                 self.state.memory.instance[visit.object_type] = pending.click.instance_id
                 self.events.append(f"search: opened {visit.object_type}")
             elif pending.click is not None:  # nothing changed: it stands open already; look in all the same

@@ -31,6 +31,13 @@ Spot = tuple[float, float]
 Box = tuple[Point, Point]
 """World (min corner, max corner), metres: a container's extent."""
 
+
+def in_box(point: Point, box: Box, margin_m: float = 0.1) -> bool:
+    """Whether a world point lies in a box grown by ``margin_m`` on every side."""
+    lo, hi = box
+    return all(lo[k] - margin_m <= point[k] <= hi[k] + margin_m for k in range(3))
+
+
 PendingPurpose = Literal["plan", "search", "motion"]
 """What the previous action served: the plan's current subgoal, the container search, or getting somewhere."""
 
@@ -45,6 +52,7 @@ class Pending:
     pose: Pose  # where it was taken from
     click: Click | None = None
     colour: np.ndarray | None = None  # float32 [3]: the clicked instance's normalised colour before
+    box: Box | None = None  # an Open's container: its extent as seen when clicking it (``opened_box``)
 
 
 @dataclass
@@ -62,6 +70,9 @@ class Memory:
     instance: dict[str, int] = field(default_factory=dict)
     """Type -> segmentation id of the instance the agent last picked up (AI2-THOR's ids, and ours, are
     stable within an episode): after putting it down, the plan's next use of the type means that one."""
+    opened_box: dict[str, Box] = field(default_factory=dict)
+    """Container type -> world box of the one last opened: "Open Cabinet, Pickup Plate" means the plate in
+    there, not a dirty one in the sink beside it."""
     switched_on: dict[str, list[tuple[int, Point]]] = field(default_factory=dict)
     """Switch type -> (segmentation id, where) of the switches of a row (stove knobs) the agent turned on."""
     placed_into: dict[str, list[str]] = field(default_factory=dict)
@@ -123,6 +134,8 @@ class Attempt:
     unsticks: int = 0  # moves made because the navigator saw no way out
     tried_source: bool = False  # went to look where the type's pieces came from
     search: SearchState = field(default_factory=SearchState)
+    hint_checked: bool = False  # the container the plan opened for the target was looked into
+    accept_second: bool = False  # a look around found nothing better than a second-rate instance
     switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
     # (stove knobs) switched this subgoal
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch

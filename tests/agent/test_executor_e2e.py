@@ -131,3 +131,47 @@ def test_the_tomato_put_down_to_slice_is_the_one_sliced(client: TestClient) -> N
     assert run.last["done"], run.last
     (left,) = run.sim.world.of_type("Tomato")  # one was sliced into pieces
     assert left.center == before[left.object_id], "the tomato carried to the counter was not the one sliced"
+
+
+def _put_near(world: World, thing: WorldObject, kind: str, to: WorldObject) -> None:
+    """Put ``thing`` on the ``kind`` nearest ``to`` that has room for it."""
+    for holder in sorted(world.of_type(kind), key=lambda o: math.dist(o.center, to.center)):
+        if resting_center(world, thing, holder) is not None:
+            _put(world, thing, holder)
+            return
+    raise AssertionError(f"no {kind} has room for {thing.object_id}")
+
+
+def test_open_microwave_then_pickup_plate_takes_the_plate_in_there(client: TestClient) -> None:
+    """ "Open Microwave, Pickup Plate": the plate meant is the one in there, not one on the counter by it."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Plate", 2),))
+    microwave = world.of_type("Microwave")[0]
+    inside, outside = world.of_type("Plate")[:2]
+    _put(world, inside, microwave)
+    _put_near(world, outside, "CounterTop", microwave)
+
+    plan = "Navigate Microwave, Open Microwave, Navigate Plate, Pickup Plate"
+    run = drive(client, world, plan, max_steps=300)
+
+    assert run.last["done"], run.last
+    assert run.sim.world.agent.held == inside.object_id
+
+
+def test_a_bowl_that_looks_dirty_is_passed_over_for_a_clean_one_to_serve_in(client: TestClient) -> None:
+    """Serving needs a clean bowl: a stained one in view is taken only if a look around finds no other."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Bowl", 2),))
+    dirty, clean = world.of_type("Bowl")[:2]
+    here = (world.agent.x, 0.9, world.agent.z)
+    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
+    _put(world, dirty, counters[0])
+    _put(world, clean, counters[-1])
+    dirty.is_dirty, clean.is_dirty = True, False
+    before = {b.object_id: b.center for b in (dirty, clean)}
+
+    plan = "Navigate Bowl, Pickup Bowl, Navigate CounterTop, Place CounterTop"
+    run = drive(client, world, plan, max_steps=300)
+
+    assert run.last["done"], run.last
+    after = run.sim.world.objects
+    assert after[dirty.object_id].center == before[dirty.object_id], "the stained bowl was taken"
+    assert after[clean.object_id].center != before[clean.object_id]
