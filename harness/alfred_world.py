@@ -22,8 +22,9 @@ trajectory's ``init_action`` (and every pose of its expert plan) lands on a cell
    fixed order, so every ALFRED task stays solvable. Objects ALFRED leaves on the floor join them.
 3. **The room**: those cells plus every cell under a piece, holes closed. A cell the agent could stand on
    that ALFRED's grid does not list and nothing stands on leaves the floor (the wall comes up to the walkway,
-   or a pillar stands where AI2-THOR has furniture the data does not place), so the reachable grid stays the
-   floor plan's; floor this cuts off from the walkway is joined back by the fewest cells.
+   or a pillar stands where AI2-THOR has furniture the data does not place; in kitchens that furniture is
+   counter, so such pillars are counter-height CounterTop blocks), so the reachable grid stays the floor
+   plan's; floor this cuts off from the walkway is joined back by the fewest cells.
 4. **Objects** from ``scene.object_poses`` (type = objectName before '_', id = AI2-THOR's id for the pose's
    position), each into or onto the accepting receptacle (the ontology) whose holding volume is nearest its
    ALFRED position, at the free spot nearest that position (``harness.physics.resting_center``); inside
@@ -2166,11 +2167,49 @@ def _enclose(b: _Build, name: str, seed: int) -> World:
             _place_wall_fixtures(b, world)
         joined = _plug(world, b.reachable, [p.to_object() for p in b.pieces])
         b.reachable = np.concatenate([b.reachable, joined])
+    _counters_for_pillars(b, world)
     for piece in sorted(b.pieces, key=_priority):
         obj = piece.to_object()
         obj.is_toggled = obj.object_type == "LightSwitch"  # AI2-THOR rooms start lit, everything else off
         world.add(obj)
     return world
+
+
+def _counters_for_pillars(b: _Build, world: World) -> None:
+    """Cells cut off inside the room (pillars) stand where AI2-THOR has furniture the data does not place;
+    in kitchens that is counter, so they become counter-height CounterTop blocks instead of walls up to the
+    ceiling that hide the microwave or fridge behind them."""
+    if b.plan.kind != "kitchen":
+        return
+    room = world.room
+    _, labels = cv2.connectedComponents((~room.floor).astype(np.uint8), connectivity=4)  # [NX, NZ]
+    outside = set(np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])).tolist())
+    outside.add(0)  # cv2 labels the floor 0
+    tops = [c.hi[1] for c in b.of_type("CounterTop")] or [b.catalog.counter.top_m]
+    top = max(tops, key=tops.count)
+    half_cell = GRID_STEP_M / 2 + EPS_M
+    for label in outside:
+        labels[labels == label] = 0
+    for ix, iz in np.argwhere(labels > 0):
+        x, z = room.cell_center(int(ix), int(iz))
+        if any(
+            p.mount == "wall"
+            and p.lo[0] <= x + half_cell
+            and p.hi[0] >= x - half_cell
+            and p.lo[2] <= z + half_cell
+            and p.hi[2] >= z - half_cell
+            for p in b.pieces
+        ):
+            labels[labels == labels[ix, iz]] = 0  # something hangs on this pillar: it stays
+    for ix, iz in np.argwhere(labels > 0):
+        room.floor[ix, iz] = True
+        x, z = room.cell_center(int(ix), int(iz))
+        half = GRID_STEP_M - THIN_CLEARANCE_M  # the cells around stay as walkable as the pillar left them
+        lo, hi = [x - half, 0.0, z - half], [x + half, top, z + half]
+        centre = (x, top, z)
+        b.pieces.append(
+            _Piece(make_object_id("CounterTop", centre), "CounterTop", lo, hi, 0, "floor", centre)
+        )
 
 
 def _cells_of(room: Room, mask: np.ndarray) -> set[tuple[int, int]]:
