@@ -101,6 +101,8 @@ MAX_ADVANCE_M = 0.5
 
 MAX_SLIDE_M = 0.25
 """Farthest a rigid piece (a fridge) slides sideways to meet the walkway (``_advance``)."""
+MIN_KEPT_ALONG = 0.6
+"""Share of its length a piece keeps when it gives up an end to come forward (``_advance``)."""
 SLIDE_STEP_M = 0.05
 _SLIDES = tuple(
     dict.fromkeys(k * SLIDE_STEP_M * s for k in range(round(MAX_SLIDE_M / SLIDE_STEP_M) + 1) for s in (1, -1))
@@ -1176,28 +1178,28 @@ def _keep_walkway_clear(b: _Build) -> None:
 
 def _advance(b: _Build) -> None:
     """Bring each floor piece's front up to AGENT_RADIUS_M from the walkway (by MAX_ADVANCE_M at most): the
-    floor plan says nothing stands between, and a gap would be floor the agent could walk on. Rigid pieces
-    (fridges, sinks, tubs) move instead of stretching, and may slide sideways by up to MAX_SLIDE_M to do it:
-    an AI2-THOR id's position is the object's pivot, not its centre, and a fridge held back by a walkway
-    point off one of its corners left an unlisted strip in front of its door, which became a wall."""
+    floor plan says nothing stands between, and a gap would be floor the agent could walk on (it becomes a
+    wall before the piece, hiding what is on or in it). Rigid pieces (fridges, sinks, tubs) move instead of
+    stretching, and may slide sideways by up to MAX_SLIDE_M to do it: an AI2-THOR id's position is the
+    object's pivot, not its centre. Other pieces held back by a neighbour at one end (a side table at the
+    bed's head) may give up that end, keeping their pivot and at least MIN_KEPT_ALONG of their length."""
     for piece in sorted(b.pieces, key=_priority):
         if piece.lo[1] >= BLOCKING_BELOW_M or piece.mount == "wall":
             continue
         fx, fz = _DIRECTIONS[piece.facing]
         axis, sign = (0, fx) if fx else (2, fz)
+        side = 2 - axis
         rigid = _priority(piece)[0] == 0
-        slides = _SLIDES if rigid else (0.0,)
+        spans = _slid_spans(piece, side) if rigid else _trimmed_spans(b, piece, axis, sign)
         feasible = [
-            (gain, -abs(slide), slide)
-            for slide in slides
-            if (gain := _advance_room(b, piece, axis, sign, slide)) is not None
+            (gain, span[1] - span[0], -abs(span[0] - piece.lo[side]), span)
+            for span in spans
+            if (gain := _advance_room(b, piece, axis, sign, span)) is not None
         ]
-        gain, _, slide = max(feasible)  # sliding by 0 is always feasible
+        gain, _, _, span = max(feasible)  # the piece's own span is always feasible
         if gain <= 0.0:
             continue
-        side = 2 - axis
-        piece.lo[side] += slide
-        piece.hi[side] += slide
+        piece.lo[side], piece.hi[side] = span
         if rigid:
             piece.lo[axis] += sign * gain
             piece.hi[axis] += sign * gain
@@ -1207,14 +1209,38 @@ def _advance(b: _Build) -> None:
             piece.lo[axis] -= gain
 
 
-def _advance_room(b: _Build, piece: _Piece, axis: int, sign: int, slide: float) -> float | None:
-    """How far the piece's front can come forward (metres, ≥ 0) after sliding it ``slide`` metres sideways;
-    None if the slide itself is not free (it would overlap a piece or crowd a walkway point)."""
+def _slid_spans(piece: _Piece, side: int) -> list[tuple[float, float]]:
+    """The piece's extent along ``side``, and that extent slid by every step up to MAX_SLIDE_M."""
+    return [(piece.lo[side] + slide, piece.hi[side] + slide) for slide in _SLIDES]
+
+
+def _trimmed_spans(b: _Build, piece: _Piece, axis: int, sign: int) -> list[tuple[float, float]]:
+    """The piece's extent along the other axis, and that extent cut back from a neighbour standing in front
+    of one of its ends (keeping the pivot and MIN_KEPT_ALONG of the length)."""
+    side = 2 - axis
+    lo, hi = piece.lo[side], piece.hi[side]
+    spans = [(lo, hi)]
+    ahead_lo, ahead_hi = list(piece.lo), list(piece.hi)
+    front = piece.hi[axis] if sign > 0 else piece.lo[axis]
+    ahead_lo[axis], ahead_hi[axis] = sorted((front, front + sign * MAX_ADVANCE_M))
+    ahead = _Piece("", "", ahead_lo, ahead_hi, 0, "floor", piece.pivot)
+    pivot = piece.pivot[side]
+    for other in b.pieces:
+        if other is piece or not ahead.overlaps(other):
+            continue
+        for cut in ((other.hi[side], hi), (lo, other.lo[side])):
+            if cut[0] <= pivot <= cut[1] and cut[1] - cut[0] >= MIN_KEPT_ALONG * (hi - lo):
+                spans.append(cut)
+    return spans
+
+
+def _advance_room(b: _Build, piece: _Piece, axis: int, sign: int, span: tuple[float, float]) -> float | None:
+    """How far the piece's front can come forward (metres, ≥ 0) with its extent along the other axis set to
+    ``span``; None if that extent is not free (it would overlap a piece or crowd a walkway point)."""
     side = 2 - axis
     lo, hi = list(piece.lo), list(piece.hi)
-    lo[side] += slide
-    hi[side] += slide
-    if slide:
+    lo[side], hi[side] = span
+    if lo[side] < piece.lo[side] - EPS_M or hi[side] > piece.hi[side] + EPS_M:  # it slid onto new ground
         moved = _Piece("", "", lo, hi, 0, "floor", piece.pivot)
         if len(_violators(lo, hi, b.reachable, CLEARANCE_M)) or any(
             moved.overlaps(o) for o in b.pieces if o is not piece

@@ -340,6 +340,23 @@ def test_no_wall_pillar_hides_the_microwave_in_floorplan14(shared_data_dir: Path
     assert inside and all(sight.can_act_on(world, o.object_id, thorough=True) for o in inside)
 
 
+def test_a_bed_gives_up_its_head_end_to_meet_the_walkway(shared_data_dir: Path) -> None:
+    """FloorPlan302: a side table at the bed's head held the whole bed back from the walkway, the strip left
+    became a wall and the books ALFRED left on the bed could not be seen; the bed now gives up that end."""
+    world = alfred_world(find_trajectory("trial_T20190906_181233_363875", shared_data_dir), shared_data_dir)
+    (bed,) = world.of_type("Bed")
+    fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[bed.facing]
+    (x0, _, z0), (x1, _, z1) = bed.min_corner, bed.max_corner
+    for t in (0.1, 0.5, 0.9):
+        x = (x1 + 0.1 if fx > 0 else x0 - 0.1) if fx else x0 + t * (x1 - x0)
+        z = (z1 + 0.1 if fz > 0 else z0 - 0.1) if fz else z0 + t * (z1 - z0)
+        assert world.room.contains(x, z), (x, z)
+    camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
+    sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
+    books = [o for o in world.children(bed.object_id) if o.object_type == "Book"]
+    assert books and all(sight.can_act_on(world, o.object_id, thorough=True) for o in books)
+
+
 def _interior_non_floor(world: World) -> np.ndarray:
     """bool [NX, NZ]: non-floor cells not connected to the outside of the room (pillars)."""
     _, labels = cv2.connectedComponents((~world.room.floor).astype(np.uint8), connectivity=4)
