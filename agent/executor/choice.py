@@ -67,8 +67,9 @@ class InstanceChoice(StepContext):
         """An instance that looks the opposite of what the plan needs (a dirty bowl to serve slices in): it
         will do only once a short look around found no better one (``Attempt.accept_second``). Not applied
         inside a container the plan opened for X: the plan says which one, and warm light inside a
-        microwave fools the stain cue."""
-        return self._look_mismatch(obj, x, z) >= 1.0
+        microwave fools the stain cue. Only a clean one is ever required: a plan that puts a dish into the
+        sink may wash it or only fill it with water."""
+        return self._wanted_look(obj) == "clean" and self._looks_at(obj, x, z) == "dirty"
 
     def _second_rate_known(self, obj: str, attempt: Attempt) -> bool:
         """Whether a second-rate instance is in view or mapped (one to fall back on)."""
@@ -216,7 +217,7 @@ class InstanceChoice(StepContext):
             candidates = [v for v in candidates if in_box(v.point, box)]
         elif not attempt.accept_second:
             candidates = [v for v in candidates if not self._second_rate(obj, v.point[0], v.point[2])]
-        remembered = self._remembered(obj, attempt)
+        remembered = attempt.pinned if attempt.pinned is not None else self._remembered(obj, attempt)
         if remembered is not None:
             return next((v for v in candidates if v.instance_id == remembered), None)
         if not candidates:
@@ -288,6 +289,10 @@ class InstanceChoice(StepContext):
                 if cluster is None:
                     continue
             elif not attempt.accept_second and self._second_rate(obj, cluster.x, cluster.z):
+                continue
+            for full in attempt.full:
+                cluster = cluster.outside(full) if cluster is not None else None
+            if cluster is None:
                 continue
             on = self.state.memory.switched_on.get(obj, [])
             point = (cluster.x, 0.0, cluster.z)

@@ -47,6 +47,7 @@ class ExecutorConfig:
     max_steps: int = MAX_STEPS  # actions per episode (TEACh)
     max_failed_actions: int = MAX_FAILED_ACTIONS  # failed actions per episode (TEACh)
     retries_per_instance: int = 2  # failed clicks on one instance before another instance is tried
+    failures_before_room: int = 2  # failed Places into one receptacle before an obstruction is taken out
     failures_per_stand: int = 2  # failed clicks from one standing spot before moving elsewhere
     max_failures: int = 6  # failed object actions before the subgoal is given up
     max_steps_per_subgoal: int = 300  # actions spent on one subgoal before it is given up

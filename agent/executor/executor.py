@@ -34,7 +34,7 @@ import numpy as np
 from agent.executor.clicks import Click, ClickPurpose, VisibleInstance
 from agent.executor.config import ExecutorConfig
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
-from agent.executor.search import ContainerSearch
+from agent.executor.room import MakeRoom
 from agent.executor.state import Attempt, ExecutorState, Pending
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
@@ -111,7 +111,7 @@ class Executor:
         return run.decide()
 
 
-class _Run(ContainerSearch, MotionSafety):
+class _Run(MakeRoom, MotionSafety):
     """One call of ``Executor.decide`` (module docstring): the step itself, on top of the mixins."""
 
     def decide(self) -> Decision:
@@ -264,6 +264,12 @@ class _Run(ContainerSearch, MotionSafety):
                     click.point,
                 )
                 return
+            if attempt.failures >= self.cfg.failures_before_room and self._make_room(subgoal, click):
+                return
+            if subgoal.action is A.PLACE and attempt.instance_failures(click.instance_id) >= 2:
+                full = self._extent_of(click.instance_id)  # AI2-THOR tried every spot on it: full
+                if full is not None:
+                    attempt.full.append(full)
             if attempt.failures % self.cfg.failures_per_stand == 0:
                 attempt.bad_stands.append((pending.pose.x, pending.pose.z))
         self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")
@@ -293,6 +299,9 @@ class _Run(ContainerSearch, MotionSafety):
             self.state.attempt = attempt
             memory = self.state.memory
             obj = subgoal.obj
+            if memory.pins and memory.pins[0][:2] == (subgoal.action.value, obj):
+                attempt.pinned = memory.pins.pop(0)[2]
+                return attempt
             placed = obj in self.state.belief.placed
             if subgoal.action is A.NAVIGATE and placed and obj in memory.where and self._means_another(obj):
                 x, _, z = memory.where.pop(obj)

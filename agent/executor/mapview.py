@@ -76,6 +76,15 @@ class MapCluster:
         """Metres from a world point to the cluster's nearest cell centre."""
         return float(np.sqrt((self.xs - x) ** 2 + (self.zs - z) ** 2).min())
 
+    def outside(self, box: WorldBox, margin_m: float = 0.1) -> MapCluster | None:
+        """The part of the cluster outside a world box's x-z rectangle (a full counter left out), or None."""
+        (x0, _, z0), (x1, _, z1) = box
+        inside = (self.xs >= x0 - margin_m) & (self.xs <= x1 + margin_m)
+        inside &= (self.zs >= z0 - margin_m) & (self.zs <= z1 + margin_m)
+        if inside.all():
+            return None
+        return self if not inside.any() else self._part(~inside)
+
     def within(self, box: WorldBox, margin_m: float = 0.1) -> MapCluster | None:
         """The part of the cluster inside a world box (a container's extent), or None: cells within its
         x-z rectangle, and the cluster's lowest top no higher than the box's top (the mug on the counter

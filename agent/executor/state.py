@@ -75,6 +75,10 @@ class Memory:
     there, not a dirty one in the sink beside it."""
     switched_on: dict[str, list[tuple[int, Point]]] = field(default_factory=dict)
     """Switch type -> (segmentation id, where) of the switches of a row (stove knobs) the agent turned on."""
+    pins: list[tuple[str, str, int]] = field(default_factory=list)
+    """(action, type, segmentation id): the next subgoal "action type" means that instance (``room``)."""
+    room_made_in: list[str] = field(default_factory=list)
+    """Receptacle types the agent took an obstruction out of (``room``): at most once each."""
     placed_into: dict[str, list[str]] = field(default_factory=dict)
     """Type -> receptacle types the instance of it the agent handles was put into since it first took it
     up: a plan that takes an X up to put it where this one already went means another X."""
@@ -134,6 +138,8 @@ class Attempt:
     unsticks: int = 0  # moves made because the navigator saw no way out
     tried_source: bool = False  # went to look where the type's pieces came from
     search: SearchState = field(default_factory=SearchState)
+    pinned: int | None = None  # the one instance this subgoal means (``Memory.pins``)
+    full: list[Box] = field(default_factory=list)  # extents of receptacles a Place kept failing on: full
     hint_checked: bool = False  # the container the plan opened for the target was looked into
     accept_second: bool = False  # a look around found nothing better than a second-rate instance
     switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row

@@ -175,3 +175,29 @@ def test_a_bowl_that_looks_dirty_is_passed_over_for_a_clean_one_to_serve_in(clie
     after = run.sim.world.objects
     assert after[dirty.object_id].center == before[dirty.object_id], "the stained bowl was taken"
     assert after[clean.object_id].center != before[clean.object_id]
+
+
+def test_a_pan_goes_onto_a_burner_once_the_pot_standing_there_is_taken_off(client: TestClient) -> None:
+    """AI2-THOR refuses a Place into a full receptacle and TEACh does not say why; the agent sees the pot
+    on the stove's one burner, puts the pan down, takes the pot off, and places the pan."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Pan", 1), ("Pot", 1)))
+    burner, *others = world.of_type("StoveBurner")
+    for extra in others:  # a one-burner stove
+        for thing in list(world.children(extra.object_id)):
+            _put_near(world, thing, "CounterTop", extra)
+        world.remove(extra.object_id)
+    pot, pan = world.of_type("Pot")[0], world.of_type("Pan")[0]
+    for thing in list(world.children(burner.object_id)):
+        _put_near(world, thing, "CounterTop", burner)
+    _put(world, pot, burner)
+    _put_near(world, pan, "CounterTop", burner)
+
+    plan = "Navigate Pan, Pickup Pan, Navigate StoveBurner, Place StoveBurner"
+    run = drive(client, world, plan, max_steps=300)
+
+    assert run.last["done"], run.last
+    after = run.sim.world.objects
+    assert after[pan.object_id].parent_id == burner.object_id
+    assert after[pot.object_id].parent_id != burner.object_id
+    rules = [event["rule"] for answer in run.answers for event in answer["plan"]["repair_log"]]
+    assert "make-room" in rules, rules

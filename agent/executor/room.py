@@ -1,0 +1,104 @@
+"""Making room in a full receptacle: the pot will not go into a sink that already holds a pan.
+
+AI2-THOR refuses a Place when the receptacle has no free spot for the object (the seed's Table 8: "target
+receptacle full when placing"), and TEACh never says why an action failed. A person whose pot does not
+fit into the sink sees the pan lying in it, puts the pot down, takes the pan out, and tries again. When a
+Place has failed twice on a receptacle that visibly holds something the agent can carry, the plan gets
+that detour spliced in before the failed Place: put the held object down on a surface nearby, take the
+obstruction out and put it down there too, take the held object up again. Things the plan itself put into
+that receptacle (the bread of a sandwich on its plate) are never taken back out.
+"""
+
+from __future__ import annotations
+
+import math
+
+from agent.executor.clicks import Click, VisibleInstance
+from agent.executor.search import ContainerSearch
+from agent.executor.state import in_box
+from symbolic.predicates import SPREAD_OUT_RECEPTACLES
+from symbolic.repair import RepairEvent
+from symbolic.subgoals import Subgoal, SubgoalAction
+
+A = SubgoalAction
+
+SPARE_SURFACES: tuple[str, ...] = ("CounterTop", "DiningTable", "SideTable", "CoffeeTable", "Desk", "Shelf")
+"""Where things are put down for a moment, in order of preference (AI2-THOR's open work surfaces)."""
+
+
+class MakeRoom(ContainerSearch):
+    """The make-room detour (module docstring)."""
+
+    def _make_room(self, subgoal: Subgoal, click: Click) -> bool:
+        """After a failed Place into a receptacle holding an obstruction, splice the detour into the plan
+        (once per receptacle type); whether it did."""
+        held = self.state.belief.held
+        made = self.state.memory.room_made_in
+        if subgoal.action is not A.PLACE or held is None or subgoal.obj in made:
+            return False
+        if subgoal.obj in SPREAD_OUT_RECEPTACLES:
+            return False  # a counter is not full: another spot or another part of it will do
+        blocker = self._blocker(subgoal.obj, held, click)
+        if blocker is None:
+            return False
+        kind = self.view.percept.instance_types.get(blocker.instance_id, "")
+        spare = self._spare_surface(held, kind)
+        if spare is None:
+            return False
+        detour = [
+            Subgoal(A.PLACE, spare),
+            Subgoal(A.PICKUP, kind),
+            Subgoal(A.PLACE, spare),
+            Subgoal(A.PICKUP, held),
+        ]
+        memory = self.state.memory
+        memory.where[kind] = blocker.point
+        # the two Pickups mean these instances (the obstruction may be of the held object's type)
+        memory.pins.append((A.PICKUP.value, kind, blocker.instance_id))
+        held_id = memory.instance.get(held)
+        if held_id is not None:
+            memory.pins.append((A.PICKUP.value, held, held_id))
+        made.append(subgoal.obj)
+        reason = f"{subgoal} failed twice and the {subgoal.obj} holds a {kind}: take it out first"
+        event = RepairEvent("make-room", self.pointer, reason, removed=(), inserted=tuple(detour))
+        self.repairs.append(event)
+        self.plan = self.plan[: self.pointer] + detour + self.plan[self.pointer :]
+        self.state.attempt = None
+        self.events.append(f"make room: {reason}")
+        return True
+
+    def _blocker(self, receptacle: str, held: str, click: Click) -> VisibleInstance | None:
+        """The largest carryable thing in view inside the clicked receptacle, not one the plan put there
+        (in view is enough: the far end of a basin may lie beyond reach from where it was clicked)."""
+        box = self._extent_of(click.instance_id)
+        if box is None:
+            return None
+        (x0, y0, z0), (x1, y1, z1) = box
+        above = ((x0, y0, z0), (x1, y1 + 0.3, z1))  # what lies in a basin or on a plate rises above its rim
+        in_hand = self.state.memory.instance.get(held)  # held far out in front, it may show in the box
+        found = []
+        for object_type in sorted(set(self.view.percept.instance_types.values())):
+            if object_type not in self.onto:
+                continue
+            info = self.onto.get(object_type)
+            if not info.pickupable:
+                continue  # the held object itself is never clickable: it is nearer than the reach floor
+            if receptacle in self.state.memory.placed_into.get(object_type, []):
+                continue  # the plan put it there (a sandwich's bread on its plate)
+            seen = self.view.visible(object_type)
+            found += [v for v in seen if v.instance_id != in_hand and in_box(v.point, above, 0.05)]
+        return max(found, key=lambda v: v.pixels, default=None)
+
+    def _spare_surface(self, held: str, blocker: str) -> str | None:
+        """A mapped open surface that takes both the held object and the obstruction, nearest first."""
+        best: tuple[float, str] | None = None
+        for surface in SPARE_SURFACES:
+            if surface not in self.onto or not self.onto.accepts(surface, held):
+                continue
+            if not self.onto.accepts(surface, blocker):
+                continue
+            for cluster in self.view.clusters(surface):
+                distance = math.hypot(cluster.x - self.pose.x, cluster.z - self.pose.z)
+                if best is None or distance < best[0]:
+                    best = (distance, surface)
+        return None if best is None else best[1]
