@@ -201,6 +201,9 @@ FIXTURE_REACH_M = 1.0
 MAX_GROW_M = 2.5
 """... and never beyond this from its id's position (counters run along a wall, tables do not)."""
 
+PIVOT_SLACK_M = 0.05
+"""An object's ALFRED position (its pivot) lies at most its height and this much above what holds it."""
+
 SEGMENT_JOIN_M = 0.6
 """Objects at counter height over no piece and this close to one another share one counter segment."""
 
@@ -1110,8 +1113,10 @@ def _settle(b: _Build) -> None:
 
 def _counter_segments(b: _Build) -> None:
     """AI2-THOR's counter tops are single objects that run along several walls (L- and U-shaped); a box can
-    only be one straight run. Objects ALFRED leaves at counter height over no piece get a CounterTop segment
-    under them (each cluster of them one segment, as high as the counter nearest in height)."""
+    only be one straight run. Objects ALFRED leaves at counter height where no piece reaches up to them (over
+    the floor, or over base units lower than the counter) get a CounterTop segment under them (each cluster of
+    them one segment, as high as the counter nearest in height, lying on a base unit under it, cut back from
+    anything else there)."""
     tops = [c.hi[1] for c in b.of_type("CounterTop")]
     if not tops:
         return
@@ -1123,8 +1128,13 @@ def _counter_segments(b: _Build) -> None:
             top - REST_GAP_M <= y <= top + TOP_BAND_ABOVE_M and b.ontology.get(pose.object_type).pickupable
         ):
             continue
-        if any(p.contains_xz(x, z, SURFACE_MARGIN_M) for p in b.pieces):
-            continue
+        height = b.size_of(pose.object_type)[1]
+        if any(
+            p.contains_xz(x, z, SURFACE_MARGIN_M)
+            and (p.object_id in b.decks or p.lo[1] <= y <= p.hi[1] + height + PIVOT_SLACK_M)
+            for p in b.pieces
+        ):
+            continue  # a sink, or a piece reaching up to it, holds it (a wall cabinet above does not)
         half = max(b.size_of(pose.object_type)[0], b.size_of(pose.object_type)[2]) / 2 + SURFACE_MARGIN_M
         home = next(
             (c for c in clusters if any(math.hypot(x - cx, z - cz) <= SEGMENT_JOIN_M for cx, cz, _, _ in c)),
@@ -1157,7 +1167,9 @@ def _counter_segments(b: _Build) -> None:
             continue
         for _ in range(MAX_CLASHES):
             clash = next((q for q in b.pieces if piece.overlaps(q)), None)
-            if clash is None or not _cut(piece, clash):
+            if clash is not None and clash.object_id not in b.decks and clash.hi[1] <= piece.hi[1] - SLAB_M:
+                piece.lo[1] = max(piece.lo[1], clash.hi[1])  # the counter top lies on the base unit
+            elif clash is None or not _cut(piece, clash):
                 break
         if not any(piece.overlaps(q) for q in b.pieces) and piece.hi[1] - piece.lo[1] >= SLAB_M:
             b.pieces.append(piece)
