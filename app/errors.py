@@ -35,6 +35,11 @@ UTTERANCE_TOO_LONG = "utterance_too_long"
 TOO_MANY_UTTERANCES = "too_many_utterances"
 HISTORY_MISMATCH = "history_mismatch"
 
+# TEACh's RemoteModel protocol.
+EDH_INSTANCE_NOT_STARTED = "edh_instance_not_started"
+MALFORMED_FORM = "malformed_form"
+UNSUPPORTED_MEDIA_TYPE = "unsupported_media_type"
+
 # Observations (the step route).
 MISSING_OBSERVATION = "missing_observation"
 INVALID_IMAGE = "invalid_image"

@@ -13,13 +13,14 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from app.api.routes import health, sessions, steps
+from app.api.routes import health, sessions, steps, teach
 from app.body_limit import BodySizeLimit
 from app.error_handlers import install_error_handlers
 from app.logging_json import configure_json_logging
 from app.request_log import RequestLog
 from app.settings import Settings
 from app.store import InMemorySessionStore
+from app.teach import START_EDH_PATH, TeachEpisodes
 from app.version import service_version
 from symbolic.ontology import load_ontology
 
@@ -41,12 +42,14 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         app.state.ontology = load_ontology()
         app.state.store = InMemorySessionStore(settings.max_sessions, settings.session_ttl_s, clock=clock)
+        app.state.teach_episodes = TeachEpisodes()
         _LOG.info(
             "service_ready", extra={"version": app.version, "object_types": len(app.state.ontology.types)}
         )
         yield
         _LOG.info("service_stopping", extra={"sessions": len(app.state.store)})
         app.state.store = None
+        app.state.teach_episodes = None
         app.state.ontology = None
 
     app = FastAPI(
@@ -59,8 +62,13 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
     app.include_router(health.router)
     app.include_router(sessions.router)
     app.include_router(steps.router)
+    app.include_router(teach.router)
     install_error_handlers(app)
     # The last middleware added runs first: log every request, including bodies refused for size.
-    app.add_middleware(BodySizeLimit, max_body_bytes=settings.max_body_bytes)
+    app.add_middleware(
+        BodySizeLimit,
+        max_body_bytes=settings.max_body_bytes,
+        path_limits={START_EDH_PATH: (settings.max_edh_body_bytes, "JARVIS_MAX_EDH_BODY_BYTES")},
+    )
     app.add_middleware(RequestLog)
     return app

@@ -8,7 +8,10 @@ RGB) and turns an ``ObservationError`` into the error code clients branch on, na
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping
+
+from PIL import Image, UnidentifiedImageError
 
 from agent.geometry import Camera, Pose
 from agent.perception import Observation, ObservationError
@@ -108,7 +111,8 @@ def history_observation(
     camera: Camera,
     ontology: Ontology,
     *,
-    rgb: str | None,
+    images_field: str = "history.images",
+    rgb: str | bytes | None,
     depth: str | None,
     depth_encoding: str,
     segmentation: str | None,
@@ -127,10 +131,31 @@ def history_observation(
         )
     except ObservationError as error:
         names = {
-            "rgb": f"history.images[{index}]",
+            "rgb": f"{images_field}[{index}]",
             "depth": f"history.depth[{index}]",
             "depth_encoding": "history.depth_encoding",
             "segmentation": f"history.segmentation[{index}]",
             "segmentation_legend": "history.segmentation_legend",
         }
         raise observation_error(error, names) from error
+
+
+def image_size(data: bytes, field: str) -> tuple[int, int]:
+    """(width, height) of a PNG or JPEG file read from its header (nothing decoded); 422 when it is none."""
+    try:
+        with Image.open(io.BytesIO(data)) as image:
+            if image.format not in ("JPEG", "PNG"):
+                raise ApiError(422, INVALID_IMAGE, f"{field}: is a {image.format} file; send JPEG or PNG")
+            return image.size
+    except (UnidentifiedImageError, OSError) as error:
+        raise ApiError(
+            422, INVALID_IMAGE, f"{field}: is not a JPEG or PNG image ({len(data)} bytes)"
+        ) from error
+
+
+def rgb_observation(data: bytes, camera: Camera, ontology: Ontology, field: str) -> Observation:
+    """A frame that is RGB alone (TEACh's: no depth, no segmentation, no pose, no success flag)."""
+    try:
+        return decode_observation(camera, rgb=data, ontology=ontology)
+    except ObservationError as error:
+        raise observation_error(error, {"rgb": field}) from error

@@ -507,6 +507,65 @@ class StepResult(ResponseModel):
     reason: str = Field(description="Why this action, in words.", examples=["knife visible within reach"])
 
 
+# --- TEACh's RemoteModel protocol ---------------------------------------------------------------
+
+
+class TeachPrevAction(BaseModel):
+    """``prev_action`` of TEACh's ``/get_next_action``: what the runner did last (our previous answer)."""
+
+    model_config = ConfigDict(extra="ignore", allow_inf_nan=False)
+
+    action: DriverAction = Field(description="The action the runner executed.", examples=["Forward"])
+    obj_relative_coord: list[float] | None = Field(
+        default=None,
+        min_length=2,
+        max_length=2,
+        description="The click point it used, [row, column] fractions, for object actions.",
+        examples=[None],
+    )
+
+
+class TeachStarted(ResponseModel):
+    """The answer to ``/start_new_edh_instance`` (TEACh's RemoteModel only reads the 200 status)."""
+
+    success: Literal[True] = Field(description="Always true on 200.", examples=[True])
+    edh_name: str = Field(
+        description="The name the runner's next requests use (its instance file), or the instance_id.",
+        examples=["edh_instances/valid_unseen/7d2a79f43e605c36_1657.edh0.json"],
+    )
+    session_id: str = Field(
+        description="The session behind this EDH instance; readable at /v1/sessions/{session_id}.",
+        examples=["3f2c9a0e5b7d4c1e"],
+    )
+    history_frames: int = Field(description="History images replayed into the map.", examples=[42])
+    plan: PlanOut = Field(
+        description="The plan made from the dialogue history after the history's subgoals.",
+        examples=[{"subgoals": [], "text": "", "pointer": 0, "source": "model", "repair_log": []}],
+    )
+
+
+class TeachAction(ResponseModel):
+    """The answer to ``/get_next_action``, exactly the two keys TEACh's RemoteModel reads."""
+
+    action: DriverAction = Field(
+        description=f"One of TEACh's {len(TEACH_DRIVER_ACTIONS)} driver actions.",
+        examples=["Pickup"],
+        json_schema_extra={"enum": list(TEACH_DRIVER_ACTIONS)},
+    )
+    obj_relative_coord: list[float] | None = Field(
+        description="Object actions: the click point as [row, column] (y first, as TEACh's runner reads "
+        "it), fractions of the frame's height and width; null for other actions.",
+        examples=[[0.62, 0.5]],
+    )
+
+
+class TeachStatus(ResponseModel):
+    """``GET /test`` and ``GET /ping``: TEACh's connection check."""
+
+    status: Literal["ok"] = Field(description="ok when the service answers.", examples=["ok"])
+    version: str = Field(description="Service version (pyproject.toml).", examples=["0.1.0"])
+
+
 # --- service ------------------------------------------------------------------------------------
 
 

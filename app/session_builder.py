@@ -6,9 +6,10 @@ The route stays thin (STYLE.md §6): limits, defaults and error translation live
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime
+from typing import overload
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
@@ -35,7 +36,7 @@ from app.errors import (
 )
 from app.limits import check_camera, check_dialogue
 from app.observation import history_observation
-from app.schemas import CameraSpec, History, SessionCreate, SubgoalIn
+from app.schemas import CameraSpec, History, HistoryAction, SessionCreate, SubgoalIn
 from app.settings import Settings
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import Subgoal, SubgoalSyntaxError, object_type_of_id, subgoals_from_teach_actions
@@ -132,10 +133,87 @@ def history_steps(history: History | None, camera: Camera, ontology: Ontology) -
     return steps
 
 
+class EncodedHistory(Sequence[HistoryStep]):
+    """EDH history steps whose frames stay encoded (JPEG/PNG bytes) until the replay reads them.
+
+    A decoded 900x900 frame holds 2.4 MB and a TEACh history hundreds of frames, so decoding them all
+    before the replay would hold a gigabyte for one request; here each frame is decoded when its step is
+    read and dropped after. ``validate`` decodes every frame once beforehand, so a bad one is refused (422
+    naming ``field[i]``) before any session exists.
+    """
+
+    def __init__(
+        self,
+        actions: Sequence[HistoryAction],
+        frames: Sequence[bytes],
+        camera: Camera,
+        ontology: Ontology,
+        field: str,
+    ) -> None:
+        if len(frames) != len(actions):
+            raise ApiError(
+                422,
+                HISTORY_MISMATCH,
+                f"{field} has {len(frames)} frames but the history has {len(actions)} actions; send one "
+                "frame per action (the view before it)",
+            )
+        self.actions = list(actions)
+        self.frames = list(frames)
+        self.camera = camera
+        self.ontology = ontology
+        self.field = field
+
+    def validate(self) -> None:
+        for index in range(len(self)):
+            self._step(index)
+
+    def _step(self, index: int) -> HistoryStep:
+        action = self.actions[index]
+        observation = history_observation(
+            index,
+            self.camera,
+            self.ontology,
+            images_field=self.field,
+            rgb=self.frames[index],
+            depth=None,
+            depth_encoding="png16_mm",
+            segmentation=None,
+            legend=None,
+        )
+        return HistoryStep(action.action_name, observation, action.x, action.y)
+
+    def __len__(self) -> int:
+        return len(self.actions)
+
+    @overload
+    def __getitem__(self, index: int) -> HistoryStep: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[HistoryStep]: ...
+
+    def __getitem__(self, index: int | slice) -> HistoryStep | Sequence[HistoryStep]:
+        if isinstance(index, slice):
+            return [self._step(i) for i in range(*index.indices(len(self)))]
+        if not -len(self) <= index < len(self):
+            raise IndexError(f"history step {index} of {len(self)}")
+        return self._step(index % len(self))
+
+
 def build_session(
-    body: SessionCreate, settings: Settings, ontology: Ontology, session_id: str, now: datetime
+    body: SessionCreate,
+    settings: Settings,
+    ontology: Ontology,
+    session_id: str,
+    now: datetime,
+    *,
+    history_frames: Sequence[bytes] | None = None,
+    history_frames_field: str = "history.images",
 ) -> AgentSession:
-    """A session with its first repaired plan, or an ApiError naming what was wrong."""
+    """A session with its first repaired plan, or an ApiError naming what was wrong.
+
+    ``history_frames``: the history's RGB frames as encoded files (TEACh's ``edh_history_images``), one
+    per ``body.history`` action, instead of base64 ``history.images``; decoded one at a time.
+    """
     camera_spec = body.camera or default_camera(body.mode)
     check_camera(camera_spec, settings)
     check_dialogue(body.dialogue, settings)
@@ -153,7 +231,14 @@ def build_session(
             "'subgoals' needs no model.",
         ) from error
     history_subgoals = _history_subgoals(body.history, ontology)
-    history = history_steps(body.history, camera, ontology)
+    history: Sequence[HistoryStep]
+    if history_frames is not None:
+        actions = body.history.actions if body.history is not None else []
+        encoded = EncodedHistory(actions, history_frames, camera, ontology, history_frames_field)
+        encoded.validate()
+        history = encoded
+    else:
+        history = history_steps(body.history, camera, ontology)
     start = body.history.start_pose if body.history is not None else None
     backend = perception_backend(body.perception, camera)
     with planning_errors_as_api_errors("subgoals"):

@@ -53,6 +53,15 @@ class Settings(BaseSettings):
     )
     max_steps: int = Field(default=1000, ge=1, description="TEACh's step limit per episode.")
     max_failed_actions: int = Field(default=30, ge=1, description="TEACh's failed-action limit per episode.")
+    max_edh_body_bytes: int = Field(
+        default=256 * 1024 * 1024,
+        ge=1024,
+        description="Largest body of TEACh's POST /start_new_edh_instance, which carries the whole EDH "
+        "history as JPEG files (900x900 frames of ~80 kB; hundreds per instance).",
+    )
+    max_edh_history_frames: int = Field(
+        default=2000, ge=1, description="History images accepted by POST /start_new_edh_instance."
+    )
     session_lock_timeout_s: float = Field(
         default=1.0, gt=0, description="Seconds a request waits for a busy session before answering 409."
     )

@@ -4,13 +4,17 @@ The harness talks to the agent only through this client: it never imports ``app`
 Frames are sent as AI2-THOR provides them to a TEACh runner: RGB as PNG (or JPEG), depth as a 16-bit PNG of
 millimetres (or raw float32 metres) and, for oracle perception, instance ids as a 16-bit PNG with an
 ``{id: object type}`` legend; by default base64 in JSON, or as file parts of a multipart form.
+
+``TeachRemoteModel`` speaks the other protocol the service serves: TEACh's ``RemoteModel`` forms (JPEG frames
+only), as TEACh's own inference runner sends them.
 """
 
 from __future__ import annotations
 
 import base64
+import io
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Literal
@@ -18,6 +22,7 @@ from typing import Any, Literal
 import cv2
 import httpx
 import numpy as np
+from PIL import Image
 
 from harness.render import Frame
 from harness.world import AgentState
@@ -232,3 +237,93 @@ class AgentClient:
             return dict(self._send("POST", path, data=form, files=files).json())
         body = {**fields, **{name: base64.b64encode(data).decode("ascii") for name, data in parts.items()}}
         return dict(self._send("POST", path, json=body).json())
+
+
+# ---- TEACh's RemoteModel -------------------------------------------------------------------------------
+
+TEACH_PREDICT_PATH = "/get_next_action"
+TEACH_START_EDH_PATH = "/start_new_edh_instance"
+TEACH_TEST_PATH = "/test"
+
+
+def _pil_jpeg(image: Image.Image) -> io.BytesIO:
+    """What RemoteModel does with each frame: ``image.save(buffer, "jpeg")`` (Pillow's default quality 75)."""
+    buffer = io.BytesIO()
+    image.save(buffer, "jpeg")
+    buffer.seek(0)
+    return buffer
+
+
+def _without_none(data: Mapping[str, str | None]) -> dict[str, str]:
+    """The form fields ``requests`` sends for a ``data`` dict: it leaves out keys whose value is None."""
+    return {key: value for key, value in data.items() if value is not None}
+
+
+class TeachRemoteModel:
+    """TEACh's ``RemoteModel`` client (``teach/inference/remote_model.py``), request for request.
+
+    The same URLs, form fields, JSON encodings, file names and content types as TEACh's class; only the HTTP
+    library differs (httpx here, ``requests`` there), with ``requests``' two habits reproduced: a field whose
+    value is None is left out (so ``prev_action`` is absent on the first step, and ``edh_name`` when not
+    given), and a form without files is sent urlencoded rather than multipart. Errors raise ServiceError
+    where RemoteModel raises its RemoteModelException (TEACh's runner ends the instance either way).
+    """
+
+    def __init__(self, base_url: str, timeout: float = 120.0, http: httpx.Client | None = None) -> None:
+        """``http``: a client to send through instead of a new one (FastAPI's TestClient in tests)."""
+        self.base_url = base_url.rstrip("/")
+        self._http = http or httpx.Client(base_url=self.base_url, timeout=timeout)
+
+    def __enter__(self) -> TeachRemoteModel:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def _post(self, path: str, data: Mapping[str, str | None], files: Any) -> httpx.Response:
+        response = self._http.post(path, data=_without_none(data), files=files)
+        if response.status_code != 200:
+            raise _error_of(response)
+        return response
+
+    def test_connection(self) -> bool:
+        return self._http.get(TEACH_TEST_PATH).status_code == 200
+
+    def start_new_edh_instance(
+        self,
+        edh_instance: Mapping[str, Any],
+        edh_history_images: Sequence[Image.Image] | None,
+        edh_name: str | None = None,
+    ) -> dict[str, Any]:
+        """One ``edh_history_images`` JPEG per image, named ``history<i>``; returns the service's answer
+        (RemoteModel only checks the status and returns True)."""
+        images = [
+            ("edh_history_images", (f"history{index}", _pil_jpeg(image), "image/jpeg"))
+            for index, image in enumerate(edh_history_images or ())
+        ]
+        data = {"edh_name": edh_name, "edh_instance": json.dumps(edh_instance)}
+        return dict(self._post(TEACH_START_EDH_PATH, data, images).json())
+
+    def get_next_action(
+        self,
+        img: Image.Image,
+        edh_instance: Mapping[str, Any],
+        prev_action: Mapping[str, Any] | None,
+        img_name: str | None = None,
+        edh_name: str | None = None,
+    ) -> tuple[str | None, list[float] | None]:
+        """(action, obj_relative_coord as [row, column]); ``prev_action`` None or empty on the first step."""
+        data = {
+            "img_name": img_name,
+            "edh_name": edh_name,
+            "prev_action": json.dumps(prev_action) if prev_action else None,
+            "edh_instance": json.dumps(edh_instance),
+        }
+        files = {"img": (img_name, _pil_jpeg(img), "image/jpeg")}
+        answer = self._post(TEACH_PREDICT_PATH, data, files).json()
+        return answer.get("action"), answer.get("obj_relative_coord")

@@ -27,9 +27,10 @@ from typing import Any, Literal
 
 import httpx
 import numpy as np
+from PIL import Image
 
 from harness.camera import CameraSpec
-from harness.client import AgentClient, FrameEncoding, ServiceError, pose_of
+from harness.client import AgentClient, FrameEncoding, ServiceError, TeachRemoteModel, pose_of
 from harness.episodes.build import BuildConfig, BuildError
 from harness.episodes.generate import GenerateConfig, generate_one, write_game
 from harness.episodes.model import Episode
@@ -406,6 +407,40 @@ class EpisodeUnavailable(RuntimeError):
     skips such games)."""
 
 
+def _generate_into(
+    out: Path,
+    split: Split,
+    index: int,
+    camera: CameraSpec,
+    tasks: Sequence[str],
+    images: bool = False,
+) -> str:
+    """Write the generated game of ``index`` (and with ``images`` its driver frames) under ``out``, TEACh's
+    layout; returns its game id."""
+    config = GenerateConfig(
+        out=Path("."),
+        splits=(split,),
+        n=1,
+        tasks=tuple(tasks),
+        build=BuildConfig(camera=camera, images=images),
+    )
+    name = f"{split} #{index} ({tasks[index % len(tasks)]})"
+    try:
+        _, built = generate_one(split, index, config, load_phrase_bank(), load_ontology())
+    except (TaskSamplingError, BuildError) as error:
+        raise EpisodeUnavailable(f"{name}: {error}") from error
+    write_game(out, built, io.StringIO())
+    return built.game_id
+
+
+def _edh_path(out: Path, split: Split, game_id: str, instance: str) -> Path:
+    path = out / "edh_instances" / split / f"{game_id}.{instance}.json"
+    if not path.is_file():
+        cuts = len(list(path.parent.glob(f"{game_id}.edh*.json")))
+        raise EpisodeUnavailable(f"{split} game {game_id} has {cuts} EDH instances, no {instance}")
+    return path
+
+
 def generated_episode(
     split: Split,
     index: int,
@@ -423,25 +458,12 @@ def generated_episode(
     """
     if instance != "tfd" and not re.fullmatch(r"edh\d+", instance):
         raise ValueError(f"instance must be 'tfd' or 'edh<k>' (edh0, edh1, ...), got {instance!r}")
-    config = GenerateConfig(
-        out=Path("."), splits=(split,), n=1, tasks=tuple(tasks), build=BuildConfig(camera=camera)
-    )
-    name = f"{split} #{index} ({tasks[index % len(tasks)]})"
-    try:
-        _, built = generate_one(split, index, config, load_phrase_bank(), load_ontology())
-    except (TaskSamplingError, BuildError) as error:
-        raise EpisodeUnavailable(f"{name}: {error}") from error
     with tempfile.TemporaryDirectory(prefix="jarvis-episode-") as scratch:
         out = Path(scratch)
-        write_game(out, built, io.StringIO())
+        game_id = _generate_into(out, split, index, camera, tasks)
         if instance == "tfd":
-            return load_tfd(
-                out / "tfd_instances" / split / f"{built.game_id}.tfd0.json", out / "games", split
-            )
-        path = out / "edh_instances" / split / f"{built.game_id}.{instance}.json"
-        if not path.is_file():
-            raise EpisodeUnavailable(f"{name}: the game has {len(built.edh)} EDH instances, no {instance}")
-        return load_edh(path, out / "games", split)
+            return load_tfd(out / "tfd_instances" / split / f"{game_id}.tfd0.json", out / "games", split)
+        return load_edh(_edh_path(out, split, game_id, instance), out / "games", split)
 
 
 def generated_tfd_episode(
@@ -449,6 +471,149 @@ def generated_tfd_episode(
 ) -> Episode:
     """The generated game's TfD episode (what the benchmarks run)."""
     return generated_episode(split, index, camera, tasks, instance="tfd")
+
+
+# ---- TEACh's inference runner with RemoteModel ---------------------------------------------------------
+
+
+@dataclass
+class TeachInstance:
+    """An EDH instance as TEACh's inference runner holds it: the file's JSON, the history frames it loads
+    from ``images/<split>/<game_id>/`` (``driver_image_history``), and the name it passes as ``edh_name``
+    (the instance file's path)."""
+
+    edh_instance: dict[str, Any]
+    history_images: list[Image.Image]
+    edh_name: str
+
+
+def load_teach_instance(path: Path, images_dir: Path) -> TeachInstance:
+    """What TEACh's runner reads for one instance file (``images_dir``: the data's ``images/<split>``)."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    folder = images_dir / str(data["game_id"])
+    images = []
+    for name in data.get("driver_image_history", []):
+        with Image.open(folder / name) as image:
+            images.append(image.convert("RGB"))
+    return TeachInstance(edh_instance=data, history_images=images, edh_name=str(path))
+
+
+def generated_teach_instance(
+    split: Split,
+    index: int,
+    camera: CameraSpec = DEFAULT_CAMERA,
+    tasks: Sequence[str] = BENCHMARK_TASKS,
+    instance: str = "edh0",
+) -> tuple[Episode, TeachInstance]:
+    """A generated game's EDH cut written with its driver frames: the episode (its world after the history)
+    and the instance as TEACh's runner would read it from those files."""
+    if not re.fullmatch(r"edh\d+", instance):
+        raise ValueError(f"instance must be 'edh<k>' (edh0, edh1, ...), got {instance!r}")
+    with tempfile.TemporaryDirectory(prefix="jarvis-teach-") as scratch:
+        out = Path(scratch)
+        game_id = _generate_into(out, split, index, camera, tasks, images=True)
+        path = _edh_path(out, split, game_id, instance)
+        episode = load_edh(path, out / "games", split)
+        teach = load_teach_instance(path, out / "images" / split)
+        teach.edh_name = f"edh_instances/{split}/{path.name}"  # the temporary folder is gone after this
+    return episode, teach
+
+
+def run_teach_episode(
+    episode: Episode,
+    instance: TeachInstance,
+    model: TeachRemoteModel,
+    options: RunnerOptions | None = None,
+) -> EpisodeRun:
+    """One EDH instance the way TEACh's ``InferenceRunner._run_edh_instance`` runs it with ``RemoteModel``.
+
+    ``start_new_edh_instance`` with the history frames, then per step: the current frame as a PIL image,
+    ``get_next_action(img, edh_instance, prev_action, img_name, edh_name)``, the action executed with the
+    click read as ``[y, x]``, ``prev_action = {"action", "obj_relative_coord"}``; the end at Stop, after
+    ``max_steps`` steps or ``max_failures`` failed ones. No pose, no success flag, no depth: TEACh sends RGB
+    only, so the service runs learned perception. ``options`` gives the limits and the render noise.
+    """
+    options = options or RunnerOptions()
+    look_step = int(episode.metadata.get("look_step_deg", TEACH_LOOK_STEP_DEG))
+    simulator = Simulator(episode.world.copy(), options.camera, look_step_deg=look_step)
+    initial_report = episode.check(simulator.world)
+    started = time.perf_counter()
+    data = instance.edh_instance
+    instance_id = str(data.get("instance_id", episode.instance_id))
+    actions: list[ActionRecord] = []
+    failures: Counter[str] = Counter()
+    end_reason: EndReason = "step_limit"
+    error_detail = None
+    created: dict[str, Any] = {"session_id": "", "plan": {"subgoals": [], "text": "", "pointer": 0}}
+    try:
+        created = model.start_new_edh_instance(data, instance.history_images, instance.edh_name)
+        prev_action: dict[str, Any] | None = None
+        for step in range(options.max_steps):
+            frame = simulator.observe(noise_seed=step if options.noise else None)
+            assert frame.rgb is not None, "the simulator renders rgb"
+            img_name = f"img__{instance_id}_{step + 1}.jpeg"  # TEACh's InferenceRunner._save_image
+            action, coord = model.get_next_action(
+                Image.fromarray(frame.rgb), data, prev_action, img_name, instance.edh_name
+            )
+            record = _execute_teach_action(simulator, step, str(action), coord)
+            actions.append(record)
+            prev_action = {"action": action, "obj_relative_coord": coord}
+            if record.failure is not None:
+                failures[record.failure] += 1
+                if sum(failures.values()) >= options.max_failures:
+                    end_reason = "failure_limit"
+                    break
+            if action == "Stop":
+                end_reason = "stop"
+                break
+    except (ServiceError, httpx.HTTPError) as error:
+        end_reason, error_detail = "error", str(error)
+    final_report = episode.check(simulator.world)
+    outcome = EpisodeOutcome(
+        instance_id=episode.instance_id,
+        task_name=_task_name(episode),
+        success=final_report.success,
+        gc_satisfied=final_report.satisfied,
+        gc_total=final_report.total,
+        init_gc_satisfied=initial_report.satisfied,
+        init_gc_total=initial_report.total,
+        pred_len=len(actions),
+        ref_len=episode.reference_length,
+        failure_reasons=dict(failures),
+        steps=len(actions),
+        wall_s=time.perf_counter() - started,
+        predicted_stop=end_reason == "stop",
+        error=end_reason == "error",
+    )
+    progress = PlanProgress(created["plan"])
+    return EpisodeRun(
+        episode=episode,
+        session_id=str(created["session_id"]),
+        outcome=outcome,
+        end_reason=end_reason,
+        actions=actions,
+        plans=progress.plans,
+        subgoals=[],
+        initial_plan=dict(created["plan"]),
+        initial_report=initial_report,
+        final_report=final_report,
+        error_detail=error_detail,
+    )
+
+
+def _execute_teach_action(
+    simulator: Simulator, step: int, action: str, coord: Sequence[float] | None
+) -> ActionRecord:
+    """TEACh's ``InferenceRunner._execute_action``: Stop succeeds; an object action clicks at
+    ``x = coord[1], y = coord[0]``; a motion moves."""
+    x = y = None
+    if action in OBJECT_ACTIONS and coord is not None:
+        y, x = float(coord[0]), float(coord[1])
+    success, failure = True, None
+    if action != "Stop":
+        outcome = simulator.step(action, x, y)
+        success, failure = outcome.success, outcome.failure.value if outcome.failure is not None else None
+    return ActionRecord(step, action, x, y, success, failure, None, 0, 0, "")
 
 
 # ---- command line ------------------------------------------------------------------------------------

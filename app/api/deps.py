@@ -16,6 +16,7 @@ from agent.session import AgentSession
 from app.errors import NOT_READY, SESSION_NOT_FOUND, STEP_IN_PROGRESS, ApiError
 from app.settings import Settings
 from app.store import SessionBusy, SessionNotFound, SessionStore
+from app.teach import TeachEpisodes, TeachForm, read_teach_form
 from symbolic.ontology import Ontology
 
 
@@ -37,9 +38,25 @@ def get_ontology(request: Request) -> Ontology:
     return cast(Ontology, ontology)
 
 
+def get_teach_episodes(request: Request) -> TeachEpisodes:
+    episodes = getattr(request.app.state, "teach_episodes", None)
+    if episodes is None:
+        raise ApiError(503, NOT_READY, "the TEACh episode index is not loaded yet (the service is starting)")
+    return cast(TeachEpisodes, episodes)
+
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[SessionStore, Depends(get_store)]
 OntologyDep = Annotated[Ontology, Depends(get_ontology)]
+TeachEpisodesDep = Annotated[TeachEpisodes, Depends(get_teach_episodes)]
+
+
+async def get_teach_form(request: Request, settings: SettingsDep) -> TeachForm:
+    """The TEACh request's form fields and files (``app.teach.read_teach_form``)."""
+    return await read_teach_form(request, settings)
+
+
+TeachFormDep = Annotated[TeachForm, Depends(get_teach_form)]
 
 
 def session_not_found(session_id: str) -> ApiError:

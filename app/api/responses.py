@@ -7,10 +7,11 @@ from typing import Any
 from app.schemas import ErrorBody
 
 _MEANING = {
-    400: "Malformed JSON (error malformed_json).",
-    404: "Unknown or expired session (error session_not_found).",
+    400: "Malformed JSON or form (error malformed_json, malformed_form).",
+    404: "Unknown or expired session (error session_not_found, edh_instance_not_started).",
     409: "The session is busy with another request, or the step index is out of order.",
     413: "Body, dialogue or plan over the configured limit.",
+    415: "A TEACh route was sent something other than a form (error unsupported_media_type).",
     422: "Invalid input; the detail names the field (validation_error, unknown_object_type, ...).",
     429: "The store is full (error too_many_sessions).",
     501: "Valid request for a part that is not built yet (error not_implemented).",
