@@ -23,6 +23,9 @@ from agent.navigation.base import NavGoal, body_fits
 from agent.navigation.goals import interaction_goal_cells
 from symbolic.thor import INTERACTION_DISTANCE_M
 
+HEADING_KEEP_M = 0.3
+"""Metres: a mapped instance this close to the one walked toward last step is that one."""
+
 
 class Approach(InstanceChoice):
     """Walking to a mapped target and bringing it into view (module docstring)."""
@@ -43,6 +46,10 @@ class Approach(InstanceChoice):
             # every known X is one the plan is done with: the rest of the pieces may hide where they came
             # from (thin slices stacked behind the first one)
             clusters = [self.view.spot_cluster(source, self.cfg.part_radius_m / 2), *clusters]
+        if attempt.heading_for is not None:  # keep to the instance chosen last step: no dithering between two
+            hx, hz = attempt.heading_for
+            kept = [c for c in clusters if math.hypot(c.x - hx, c.z - hz) <= HEADING_KEEP_M]
+            clusters = kept + [c for c in clusters if c not in kept]
         for cluster in clusters:
             front = self._front_cells(cluster) if obj in self.onto.enclosing else None
             goal = self._goal_cells(cluster, attempt, obj, front)
@@ -54,6 +61,7 @@ class Approach(InstanceChoice):
                     self.view.grids(), self.view.map.frame, self.pose, NavGoal(goal, face=face)
                 )
                 if nav.action is not None:
+                    attempt.heading_for = (cluster.x, cluster.z)
                     attempt.look_sweep.clear()
                     attempt.destination_looks = 0
                     if nav.reason == "face_target":
@@ -184,7 +192,14 @@ class Approach(InstanceChoice):
     def _at_destination(self, obj: str, cluster: MapCluster, attempt: Attempt) -> Outcome:
         """Standing where X should be reachable, facing it, yet X is not clickable: pitch the camera toward
         it; then FindTargetNearDestination (another standing cell); then Ignore(X) (Alg. 3 l. 75)."""
-        if self.view.visible(obj) and not attempt.look_sweep:
+        seen = self.view.visible(obj)
+        if seen and not attempt.look_sweep:
+            # seen at the edge of the view (a slice on the counter below a level camera): centre it first
+            glance = self._pitch_toward(seen[0].point)
+            here = (self.pose.x, self.pose.z)
+            if glance is not None and attempt.glanced.count(here) < 2:
+                attempt.glanced.append(here)
+                return Act(glance, f"Observe({obj}): pitch toward it to reach it")
             attempt.bad_stands.append((self.pose.x, self.pose.z))
             self.events.append(f"Observe({obj}) but not within reach from here; stepping closer")
             return self._approach(obj, attempt)

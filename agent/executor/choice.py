@@ -26,6 +26,11 @@ ROW_SWITCH_GAP_M = 0.08
 ROW_REACH_M = 1.2
 """Metres: the switches of one row (a stove's knobs) lie within this of each other."""
 
+PROCESSING_PLACES: frozenset[str] = frozenset(
+    {"SinkBasin", "Sink", "BathtubBasin", "Bathtub", "Microwave", "Toaster", "StoveBurner", "CoffeeMachine"}
+)
+"""Receptacles that change what goes in (rinse, heat, toast, cook, fill): going back in repeats that."""
+
 WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "Bathtub"})
 """Where a plan puts a dish down to wash it under the running tap."""
 
@@ -39,20 +44,22 @@ class InstanceChoice(StepContext):
         the same one comes back out."""
         if obj not in self.state.belief.placed:
             return False
-        for index in range(self.pointer - 1, -1, -1):
-            if self.plan[index].action is not A.NAVIGATE:
-                return self.plan[index].action is A.PLACE
-        return False
+        earlier = [s for s in self.plan[: self.pointer] if s.action is not A.NAVIGATE]
+        if not earlier or earlier[-1].action is not A.PLACE:
+            return False
+        taken = next((s for s in reversed(earlier) if s.action is A.PICKUP), None)
+        return taken is not None and taken.obj == obj  # "Place Bowl" puts a slice into the bowl, not the bowl
 
     def _means_another(self, obj: str) -> bool:
         """Whether the plan's next use of an X the agent put down means another X.
 
         Type-level plans say "Pickup Pot" for the pot just put on a counter (to carry it on to the sink)
         and for the next watch of "put all watches on the plate". The difference is what follows: taking
-        an X up to put it where this one already went ("Place Plate, Navigate Watch, Pickup Watch, Place
-        Plate") would undo nothing and repeat a finished step, so it means another X; any other use (slice
-        it, put something into it, carry it somewhere new) means the same one. Without the instance's
-        history (an EDH session's past), a Pickup means another, as in TEACh's "put all" tasks.
+        an X up to put it where it lies now ("Place Plate, Navigate Watch, Pickup Watch, Place Plate"), or
+        back into a sink, microwave or toaster it already went through (the next dirty plate of "clean
+        all plates"), would repeat a finished step, so it means another X; any other use (slice it, put
+        something into it, carry it somewhere new or back to the counter) means the same one. Without the
+        instance's history (an EDH session's past), a Pickup means another, as in TEACh's "put all" tasks.
         """
         upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
         if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
@@ -61,7 +68,10 @@ class InstanceChoice(StepContext):
         if not went:
             return True
         destination = next((s for s in upcoming[1:] if s.action in (A.PICKUP, A.PLACE)), None)
-        return destination is not None and destination.action is A.PLACE and destination.obj in went
+        if destination is None or destination.action is not A.PLACE:
+            return False
+        where = destination.obj
+        return where == went[-1] or (where in went and where in PROCESSING_PLACES)
 
     def _second_rate(self, obj: str, x: float, z: float) -> bool:
         """An instance that looks the opposite of what the plan needs (a dirty bowl to serve slices in): it
@@ -118,8 +128,13 @@ class InstanceChoice(StepContext):
                 return [self.plan[index].obj]
         return []
 
-    def _finished(self, obj: str, x: float, z: float) -> bool:
-        spots = self.state.memory.done_with.get(obj, [])
+    def _finished(self, obj: str, x: float, z: float, instance_id: int | None = None) -> bool:
+        """Whether this X is one the plan is done with: by its segmentation id when it is in view and the
+        finished one's id is known, else by nearness to where a finished one was put."""
+        memory = self.state.memory
+        if instance_id is not None and memory.done_ids.get(obj):
+            return instance_id in memory.done_ids[obj]
+        spots = memory.done_with.get(obj, [])
         return any(math.hypot(x - sx, z - sz) <= self.cfg.done_radius_m for sx, sz in spots)
 
     def _rank(
@@ -127,18 +142,20 @@ class InstanceChoice(StepContext):
     ) -> tuple[bool, float, float]:
         """Sort key: finished instances last; then, without an anchor, how well it looks what the plan
         needs (clean or dirty, ``looks``) and its distance from the agent; with one, nearness to it."""
+        instance_id = None
         if isinstance(where, VisibleInstance):
-            x, z = where.point[0], where.point[2]
+            x, z, instance_id = where.point[0], where.point[2], where.instance_id
         else:
             x, z = where.x, where.z
+        finished = self._finished(obj, x, z, instance_id)
         anchor = self._anchor(obj)
         if anchor is None:
-            return self._finished(obj, x, z), self._look_mismatch(obj, x, z), distance
+            return finished, self._look_mismatch(obj, x, z), distance
         if isinstance(where, MapCluster):
             closeness = where.distance_to(*anchor)
         else:
             closeness = math.hypot(x - anchor[0], z - anchor[1])
-        return self._finished(obj, x, z), 0.0, closeness
+        return finished, 0.0, closeness
 
     def _wanted_look(self, obj: str) -> Looks | None:
         """ "dirty" when the plan takes X up to wash it (its next Place is into a sink), "clean" when it

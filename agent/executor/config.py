@@ -26,8 +26,9 @@ class SearchConfig:
     band_gap_m: float = 0.4  # metres: parts further apart in height than this are different containers
     explore_horizon_deg: float = 30.0  # degrees down while exploring: floor near the body and counters
     # ahead are both in view with a 90° (TEACh) or 60° (ALFRED) vertical field of view
-    better_explore_steps: int = 24  # actions of exploration for an instance that looks as the plan
-    # needs (a clean bowl) before one that looks wrong is taken
+    better_explore_steps: int = 24  # actions of exploration, and ...
+    better_containers: int = 4  # ... containers opened, looking for an instance that looks as the plan
+    # needs (a clean mug) before one that looks wrong is taken (or when the search has nothing left)
     max_explore_steps: int = 80  # actions of frontier exploration per subgoal (a TEACh room is seen in
     # a few look-arounds; what is still missing then is more likely shut away than out of sight)
     surface_part_m: float = 1.0  # metres: open receptacles are looked at in parts this wide

@@ -305,7 +305,7 @@ class _Run(MakeRoom, MotionSafety):
             placed = obj in self.state.belief.placed
             if subgoal.action is A.NAVIGATE and placed and obj in memory.where and self._means_another(obj):
                 x, _, z = memory.where.pop(obj)
-                memory.done_with.setdefault(obj, []).append((x, z))
+                self._done_with(obj, x, z)
                 memory.placed_into.pop(obj, None)
                 attempt.any_instance = True
                 self.events.append(f"{subgoal}: another {obj} than the one put down at ({x:.2f}, {z:.2f})")
@@ -314,8 +314,17 @@ class _Run(MakeRoom, MotionSafety):
                 memory.placed_into.pop(obj, None)
                 if obj in memory.where:
                     x, _, z = memory.where[obj]
-                    memory.done_with.setdefault(obj, []).append((x, z))
+                    self._done_with(obj, x, z)
         return attempt
+
+    def _done_with(self, obj: str, x: float, z: float) -> None:
+        """The X the agent put down at (x, z) is finished with: remember the spot and, when known, the
+        instance (slices lie 0.2 m from the bowl they go into; a spot alone would rule them out too)."""
+        memory = self.state.memory
+        memory.done_with.setdefault(obj, []).append((x, z))
+        instance_id = memory.instance.get(obj)
+        if instance_id is not None:
+            memory.done_ids.setdefault(obj, []).append(instance_id)
 
     def _complete(
         self,

@@ -173,11 +173,11 @@ class ContainerSearch(Approach):
         self.searches += 1
         if self.searches > MAX_SEARCHES_PER_STEP:
             return GiveUp(f"search({obj}): no way to any place left to look")
-        looked = search.exhausted or search.explore_steps >= cfg.better_explore_steps
-        if not attempt.accept_second and looked and self._second_rate_known(obj, attempt):
-            attempt.accept_second = True
-            self.events.append(f"search({obj}): nothing better in sight; taking one that looks wrong for it")
-            return self._approach(obj, attempt)
+        explored = search.exhausted or search.explore_steps >= cfg.better_explore_steps
+        if explored and search.containers_opened >= cfg.better_containers:
+            taken = self._accept_second(obj, attempt)
+            if taken is not None:
+                return taken
         if not search.hinted:
             search.hinted = True
             self._take_hint(obj, search)
@@ -220,11 +220,23 @@ class ContainerSearch(Approach):
                 f"search({obj}): will open the {best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
             )
             return self._visit_container(obj, attempt)
+        taken = self._accept_second(obj, attempt)
+        if taken is not None:
+            return taken
         opened = search.containers_opened
         return GiveUp(
             f"search({obj}): not found after exploring and opening {opened} containers",
             question=f"Where is the {obj}?",
         )
+
+    def _accept_second(self, obj: str, attempt: Attempt) -> Outcome | None:
+        """Settle for a second-rate X (``choice._second_rate``) once the search for a better one has done
+        what it may; None when there is none to settle for."""
+        if attempt.accept_second or not self._second_rate_known(obj, attempt):
+            return None
+        attempt.accept_second = True
+        self.events.append(f"search({obj}): nothing better found; taking one that looks wrong for it")
+        return self._approach(obj, attempt)
 
     def _found(self, obj: str, attempt: Attempt) -> bool:
         """X can be clicked now, or is mapped somewhere the navigator did not fail to reach this subgoal (in

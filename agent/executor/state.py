@@ -61,6 +61,8 @@ class Memory:
 
     where: dict[str, Point] = field(default_factory=dict)
     """Type -> the last point the agent acted on it, or put it down."""
+    done_ids: dict[str, list[int]] = field(default_factory=dict)
+    """Type -> segmentation ids of the instances in ``done_with``: in view, the id decides."""
     done_with: dict[str, list[Spot]] = field(default_factory=dict)
     """Type -> spots of instances the plan has finished with; a new "Navigate X" means another X."""
     looks: dict[str, list[tuple[float, float, Looks]]] = field(default_factory=dict)
@@ -132,6 +134,8 @@ class Attempt:
     failed_clicks: list[tuple[int, int, int]] = field(default_factory=list)  # (instance id, row, col)
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
     unreachable: list[Spot] = field(default_factory=list)  # mapped clusters the navigator could not reach
+    heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
+    glanced: list[Spot] = field(default_factory=list)  # standing cells it pitched toward a seen X from
     destination_looks: int = 0  # looks at the destination without seeing the target, this visit
     look_sweep: list[float] = field(default_factory=list)  # horizons still to try at the destination
     any_instance: bool = False  # the remembered instance was not found where it was put: take any
