@@ -104,7 +104,15 @@ class Approach(InstanceChoice):
             cells = np.zeros((X, Z), dtype=bool)
             cells[window] = (off <= self.cfg.front_half_angle_deg) & (distance <= 1.6)
             sides.append((int((ring & (off <= 45.0)).sum()), cells, centre))
-        return sorted(sides, key=lambda side: -side[0])
+        front = self._known_front(body)
+        return sorted(sides, key=lambda side: (side[2] != front, -side[0]))
+
+    def _known_front(self, body: MapCluster) -> float | None:
+        """The direction this container was seen to open toward (``Memory.fronts``), if it was."""
+        near = [f for f in self.state.memory.fronts if body.distance_to(f[0], f[1]) <= 0.5]
+        if not near:
+            return None
+        return min(near, key=lambda f: math.hypot(f[0] - body.x, f[1] - body.z))[2]
 
     def _front_cells(self, body: MapCluster) -> np.ndarray | None:
         """bool [X, Z]: cells on the side of a container that faces the room, or None when no side stands out.
@@ -113,7 +121,9 @@ class Approach(InstanceChoice):
         its front, and its inside shows from there rather than past a swung door from the side.
         """
         sides = self._sides(body)
-        (best, cells, _), (second, _, _) = sides[0], sides[1]
+        (best, cells, direction), (second, _, _) = sides[0], sides[1]
+        if direction == self._known_front(body):
+            return cells
         if best < self.cfg.front_min_cells or best < self.cfg.front_margin * second:
             return None
         return cells

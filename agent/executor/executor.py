@@ -171,13 +171,14 @@ class _Run(MakeRoom, MotionSafety):
                 f"Collision: {outcome.action} just failed; random feasible {action} instead (Alg. 3 l. 81)"
             )
         click = outcome.click if action == outcome.action else None
-        colour = box = None
+        colour = box = before = None
         if click is not None:
             colour = instance_colour(self.inputs.observation, self.inputs.digest, click.instance_id)
             visit = self.state.attempt.search.visit if self.state.attempt is not None else None
             kind = visit.object_type if outcome.purpose == "search" and visit is not None else subgoal.obj
             if action == "Open" and kind in self.onto.enclosing:
                 box = self._container_box(kind, click)
+                before = self._footprint(kind, click.point)
         self.state.pending = Pending(
             action=action,
             purpose=outcome.purpose if action == outcome.action else "motion",
@@ -186,6 +187,7 @@ class _Run(MakeRoom, MotionSafety):
             click=click,
             colour=colour,
             box=box,
+            before=before,
         )
         x, y = (click.x, click.y) if click is not None else (None, None)
         return self._decision(action, x, y, reason, subgoal=subgoal, path=outcome.path)
@@ -250,6 +252,8 @@ class _Run(MakeRoom, MotionSafety):
                 return
             if pending.action == "Open" and pending.box is not None:
                 self.state.memory.opened_box[subgoal.obj] = pending.box
+            if pending.action == "Open":
+                self._learn_front(subgoal.obj, pending)
             self._complete(subgoal, f"Success({pending.action} {subgoal.obj})", point, instance_id)
             return
         attempt.failures += 1

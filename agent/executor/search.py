@@ -31,6 +31,13 @@ A = SubgoalAction
 OPENED_PART_M = 0.6
 """Metres around the click of an Open that belong to the container opened (one fridge, one cabinet door)."""
 
+FRONT_MIN_NEW_CELLS = 6
+"""Map cells an opened door must add before its direction is trusted as the container's front."""
+FRONT_SAME_M = 0.5
+"""Metres: a remembered front this close to a container's centroid is that container's."""
+SIDE_DIRECTIONS: tuple[float, ...] = (0.0, 90.0, 180.0, -90.0)
+"""The four sides of a container, as ``Approach._sides`` names them (degrees; 0 toward +z, 90 toward +x)."""
+
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
 
@@ -472,6 +479,31 @@ class ContainerSearch(Approach):
         lo, hi = points.min(axis=0), points.max(axis=0)
         return (float(lo[0]), float(lo[1]), float(lo[2])), (float(hi[0]), float(hi[1]), float(hi[2]))
 
+    def _footprint(self, kind: str, point: Point) -> tuple[float, float, int] | None:
+        """The mapped centroid and cell count of the container of type ``kind`` around a clicked point."""
+        body = self._container_body(kind, point)
+        part = body.around(point[0], point[2], OPENED_PART_M + 0.4) if body is not None else None
+        return None if part is None else (part.x, part.z, len(part.xs))
+
+    def _learn_front(self, kind: str, pending: Pending) -> None:
+        """After an Open: the door swung out in front, so the container's cells grew that way; remember
+        the side (``Memory.fronts``) when they clearly did."""
+        if pending.before is None or pending.click is None:
+            return
+        after = self._footprint(kind, pending.click.point)
+        x0, z0, n0 = pending.before
+        if after is None or after[2] < n0 + FRONT_MIN_NEW_CELLS:
+            return
+        x1, z1, n1 = after
+        # centroid of the new cells alone: (n1·c1 − n0·c0) / (n1 − n0)
+        nx, nz = (n1 * x1 - n0 * x0) / (n1 - n0), (n1 * z1 - n0 * z0) / (n1 - n0)
+        bearing = math.degrees(math.atan2(nx - x0, nz - z0))  # 0 toward +z, 90 toward +x
+        side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
+        fronts = self.state.memory.fronts
+        fronts[:] = [f for f in fronts if math.hypot(f[0] - x0, f[1] - z0) > FRONT_SAME_M]
+        fronts.append((x0, z0, side))
+        self.events.append(f"the {kind} at ({x0:.2f}, {z0:.2f}) opens toward {side:g}°")
+
     def _container_box(self, kind: str, click: Click) -> Box | None:
         """The extent of a container about to be opened: its pixels in this frame, joined with its mapped
         cells near the click (a fridge at the edge of the view shows only a sliver)."""
@@ -520,6 +552,7 @@ class ContainerSearch(Approach):
                 self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
                 if pending.box is not None:
                     self.state.memory.opened_box[visit.object_type] = pending.box
+                self._learn_front(visit.object_type, pending)
                 self.state.memory.instance[visit.object_type] = pending.click.instance_id
                 self.events.append(f"search: opened {visit.object_type}")
             elif pending.click is not None:  # nothing changed: it stands open already; look in all the same

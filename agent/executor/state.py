@@ -53,6 +53,8 @@ class Pending:
     click: Click | None = None
     colour: np.ndarray | None = None  # float32 [3]: the clicked instance's normalised colour before
     box: Box | None = None  # an Open's container: its extent as seen when clicking it (``opened_box``)
+    before: tuple[float, float, int] | None = None  # an Open's container: mapped centroid x, z and cell
+    # count near the click before the door swung (``Memory.fronts``)
 
 
 @dataclass
@@ -72,6 +74,9 @@ class Memory:
     instance: dict[str, int] = field(default_factory=dict)
     """Type -> segmentation id of the instance the agent last picked up (AI2-THOR's ids, and ours, are
     stable within an episode): after putting it down, the plan's next use of the type means that one."""
+    fronts: list[tuple[float, float, float]] = field(default_factory=list)
+    """(x, z, direction in degrees) of containers whose front showed when they opened: the door swings out
+    in front, so the new cells lie that way (a fridge in a corner faces the narrow gap, not the room)."""
     opened_box: dict[str, Box] = field(default_factory=dict)
     """Container type -> world box of the one last opened: "Open Cabinet, Pickup Plate" means the plate in
     there, not a dirty one in the sink beside it."""
