@@ -16,20 +16,26 @@ Episodes (slot i of ``--n``):
 - ``tatc``: the tfd episode's world and task, run by the commander bot (``harness.commander``) talking to
   the follower service, with the commander's information level ``--info`` (full, no_segmentation,
   no_goal_location); the follower plans with the model planner, which reads the commander's instructions.
-- ``alfred``: ALFRED trajectory i of the split (train or valid_seen in the shared data), its world, its first
-  annotation's ``task_desc`` as the instruction (session mode ``instruction``), 300x300 at 60°, 15° looks,
-  scored with ALFRED's goal conditions; the oracle plan is ``plan.low_actions`` turned into subgoals.
+- ``alfred``: ALFRED trajectory i of the split (train or valid_seen in the shared data; slots take the seven
+  task types in turn, ``alfred_order``), its world, its first annotation's ``task_desc`` as the instruction
+  (session mode ``instruction``), 300x300 at 60°, 15° looks, scored with ALFRED's goal conditions; the
+  oracle plan is ``plan.low_actions`` turned into subgoals.
+With ``--protocol teach`` (edh), each instance goes through TEACh's RemoteModel routes the way TEACh's own
+inference runner sends it (the instance file, its history frames and each frame as JPEG, nothing else), so
+the service runs learned perception and the model planner.
 A generated game the expert cannot solve does not exist (the generator skips it); its slot is recorded as
 unavailable, reported, and left out of the metrics.
 
 The metrics file (``OUT/metrics.json``) has TEACh's layout (success, goal_condition_success, path-length
-weighted SR and GC, per task type), the failed actions by reason (the JARVIS seed's Table 8), how failed
+weighted SR and GC, per task type; ``per_instance`` is TEACh's inference metrics file, each instance's
+``evaluate_traj`` fields by instance id), the failed actions by reason (the JARVIS seed's Table 8), how failed
 episodes ended, and steps and wall time per episode.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -43,17 +49,21 @@ from typing import Any, Literal, cast, get_args
 from tqdm import tqdm
 
 from harness.camera import CameraSpec
-from harness.client import AgentClient
+from harness.client import AgentClient, TeachRemoteModel
 from harness.commander.bot import InfoLevel
 from harness.commander.episode import run_tatc_episode
 from harness.episodes.model import Episode
 from harness.episodes.teach_format import load_edh, load_tfd
-from harness.metrics import EpisodeOutcome, aggregate
+from harness.metrics import EpisodeOutcome, aggregate, episode_metrics
 from harness.runner import (
+    EpisodeRun,
     EpisodeUnavailable,
     RunnerOptions,
     generated_episode,
+    generated_teach_instance,
+    load_teach_instance,
     run_episode,
+    run_teach_episode,
     service_url,
 )
 from harness.splits import SPLITS, Split
@@ -62,6 +72,7 @@ from symbolic.subgoals import subgoals_from_alfred_low_actions
 from symbolic.thor import ALFRED_HFOV_DEG, TEACH_HFOV_DEG
 
 BenchmarkName = Literal["edh", "tfd", "tatc", "alfred"]
+Protocol = Literal["native", "teach"]
 ALFRED_SPLITS = ("train", "valid_seen")  # the ALFRED splits in the shared data
 ALFRED_CAMERA_SIDE = 300  # ALFRED's frames: 300x300 at 60° (DESIGN.md, issue 6 §4)
 DEFAULT_CAMERA_SIDE = 300  # TEACh renders 900x900; 300 keeps an episode fast (``--camera 900`` restores it)
@@ -90,6 +101,7 @@ class EvalConfig:
     tasks: tuple[str, ...] = BENCHMARK_TASKS
     data: str | None = None  # folder of TEACh-format instances, instead of generating them
     info: InfoLevel = "full"  # TATC: what the commander may tell (the JARVIS seed's Table 2)
+    protocol: Protocol = "native"  # EDH: the native API, or TEACh's RemoteModel routes (RGB, learned)
 
     def __post_init__(self) -> None:
         if self.n < 1:
@@ -98,6 +110,15 @@ class EvalConfig:
             raise ValueError(f"ALFRED episodes come from {ALFRED_SPLITS}; split {self.split!r} has none")
         if self.benchmark != "alfred" and self.split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
+        if self.protocol == "teach" and self.benchmark != "edh":
+            raise ValueError(
+                f"--protocol teach runs EDH instances (TEACh's RemoteModel); not {self.benchmark}"
+            )
+        if self.protocol == "teach" and (self.perception, self.planner) != ("learned", "model"):
+            raise ValueError(
+                "--protocol teach sends RGB only and no plan, as TEACh does: it needs --perception learned "
+                "--planner model"
+            )
         unknown = [t for t in self.tasks if t not in BENCHMARK_TASKS]
         if unknown:
             raise ValueError(f"unknown task(s) {unknown}; known: {', '.join(BENCHMARK_TASKS)}")
@@ -133,29 +154,47 @@ def _instance_files(config: EvalConfig) -> list[Path]:
     return files
 
 
+@functools.lru_cache(maxsize=2)
+def alfred_order(split: str) -> tuple[int, ...]:
+    """File positions of the split's ALFRED trajectories in slot order: the task types in turn (the files
+    group them, so the first slots would otherwise all be one type), each type in file order."""
+    from harness.alfred_data import load_alfred_trajectories
+
+    by_type: dict[str, list[int]] = {}
+    for index, traj in enumerate(load_alfred_trajectories(split)):
+        by_type.setdefault(str(traj["task_type"]), []).append(index)
+    queues = list(by_type.values())
+    longest = max((len(queue) for queue in queues), default=0)
+    return tuple(queue[depth] for depth in range(longest) for queue in queues if depth < len(queue))
+
+
 def _alfred_episode(config: EvalConfig, slot: int) -> Episode:
     from harness.alfred_data import load_alfred_trajectories
     from harness.alfred_world import alfred_world
     from harness.tasks.alfred import alfred_task_from_pddl
 
-    for index, traj in enumerate(load_alfred_trajectories(config.split)):
-        if index < slot:
-            continue
-        low_actions = traj["plan"]["low_actions"]
-        return Episode(
-            instance_id=f"{traj['task_id']}.{slot}",
-            benchmark="alfred",
-            split=cast(Split, config.split),
-            world=alfred_world(traj),
-            task=alfred_task_from_pddl(traj["pddl_params"], traj["task_type"]),
-            instruction=str(traj["turk_annotations"]["anns"][0]["task_desc"]).strip(),
-            future_subgoals=tuple(subgoals_from_alfred_low_actions(low_actions)),
-            reference_actions=tuple(
-                {"action_name": action["api_action"]["action"]} for action in low_actions
-            ),
-            metadata={"task_id": traj["task_id"], "scene": traj["scene"].get("floor_plan")},
-        )
-    raise EpisodeUnavailable(f"ALFRED {config.split} has no trajectory {slot}")
+    order = alfred_order(config.split)
+    if slot >= len(order):
+        raise EpisodeUnavailable(f"ALFRED {config.split} has {len(order)} trajectories, no slot {slot}")
+    wanted = order[slot]
+    traj = next(t for index, t in enumerate(load_alfred_trajectories(config.split)) if index == wanted)
+    low_actions = traj["plan"]["low_actions"]
+    return Episode(
+        instance_id=f"{traj['task_id']}.{slot}",
+        benchmark="alfred",
+        split=cast(Split, config.split),
+        world=alfred_world(traj),
+        task=alfred_task_from_pddl(traj["pddl_params"], traj["task_type"]),
+        instruction=str(traj["turk_annotations"]["anns"][0]["task_desc"]).strip(),
+        future_subgoals=tuple(subgoals_from_alfred_low_actions(low_actions)),
+        reference_actions=tuple({"action_name": action["api_action"]["action"]} for action in low_actions),
+        metadata={"task_id": traj["task_id"], "scene": traj["scene"].get("floor_plan"), "file_index": wanted},
+    )
+
+
+def _edh_cut(config: EvalConfig, slot: int) -> str:
+    """The EDH cut of a generated slot: edh0 and edh1 alternate over the task cycles."""
+    return f"edh{(slot // len(config.tasks)) % 2}"
 
 
 def episode_for(config: EvalConfig, slot: int) -> Episode:
@@ -172,7 +211,7 @@ def episode_for(config: EvalConfig, slot: int) -> Episode:
         return load_edh(path, games, split) if config.benchmark == "edh" else load_tfd(path, games, split)
     if config.benchmark in ("tfd", "tatc"):
         return generated_episode(split, slot, config.camera, config.tasks, instance="tfd")
-    cut = f"edh{(slot // len(config.tasks)) % 2}"
+    cut = _edh_cut(config, slot)
     try:
         return generated_episode(split, slot, config.camera, config.tasks, instance=cut)
     except EpisodeUnavailable:
@@ -187,11 +226,17 @@ def run_slot(config: EvalConfig, slot: int, base_url: str) -> dict[str, Any]:
         episode = episode_for(config, slot)
     except EpisodeUnavailable as error:
         return {"slot": slot, "unavailable": str(error)}
+    if config.protocol == "teach":
+        return _record(slot, _run_teach_slot(config, slot, episode, base_url))
     with AgentClient(base_url, timeout=CLIENT_TIMEOUT_S) as client:
         if config.benchmark == "tatc":
             run = run_tatc_episode(episode, client, config.options(), config.info)
         else:
             run = run_episode(episode, client, config.options())
+    return _record(slot, run)
+
+
+def _record(slot: int, run: EpisodeRun) -> dict[str, Any]:
     failed = next((s.subgoal for s in run.subgoals if s.status == "failed"), None)
     return {
         "slot": slot,
@@ -199,6 +244,20 @@ def run_slot(config: EvalConfig, slot: int, base_url: str) -> dict[str, Any]:
         "failed_subgoal": failed,
         **run.summary(),
     }
+
+
+def _run_teach_slot(config: EvalConfig, slot: int, episode: Episode, base_url: str) -> EpisodeRun:
+    """The slot's EDH instance through TEACh's RemoteModel routes, as TEACh's inference runner drives them
+    (``harness.runner.run_teach_episode``): its file, its history frames, the frames as JPEG, no pose."""
+    split = cast(Split, config.split)
+    if config.data is not None:
+        path = _instance_files(config)[slot]
+        instance = load_teach_instance(path, Path(config.data) / "images" / split)
+    else:
+        cut = episode.instance_id.rsplit(".", 1)[-1]  # the cut episode_for settled on (edh1, else edh0)
+        _, instance = generated_teach_instance(split, slot, config.camera, config.tasks, cut)
+    with TeachRemoteModel(base_url, timeout=CLIENT_TIMEOUT_S) as model:
+        return run_teach_episode(episode, instance, model, config.options())
 
 
 # ---- the run folder ----------------------------------------------------------------------------------
@@ -260,6 +319,7 @@ def report(records: dict[int, dict[str, Any]], config: EvalConfig) -> dict[str, 
         "episodes_run": len(ran),
         "unavailable": {str(s): r["unavailable"] for s, r in sorted(records.items()) if "unavailable" in r},
         "metrics": aggregate(outcomes) if outcomes else None,
+        "per_instance": {o.instance_id: episode_metrics(o) for o in outcomes},
         "episode_failures": {task: dict(counts.most_common()) for task, counts in episode_failures.items()},
         "episodes": [
             {
@@ -286,12 +346,13 @@ def format_table(result: dict[str, Any]) -> str:
     if metrics is None:
         return "no episode ran"
     failures = result["episode_failures"]
-    header = f"{'task':<30}{'n':>4}{'SR':>7}{'GC':>7}{'TLW-SR':>8}{'TLW-GC':>8}{'steps':>7}{'s':>6}"
+    w = max(30, *(len(name) + 2 for name in metrics["per_task"]))  # ALFRED's task types run to 33 characters
+    header = f"{'task':<{w}}{'n':>4}{'SR':>7}{'GC':>7}{'TLW-SR':>8}{'TLW-GC':>8}{'steps':>7}{'s':>6}"
     lines = [f"{header}  failures"]
     for name, m in [*sorted(metrics["per_task"].items()), ("overall", metrics)]:
         why = ", ".join(f"{k} x{v}" for k, v in failures.get(name, {}).items())
         lines.append(
-            f"{name:<30}{m['n']:>4}{m['success']['success_rate']:>7.3f}"
+            f"{name:<{w}}{m['n']:>4}{m['success']['success_rate']:>7.3f}"
             f"{m['goal_condition_success']['goal_condition_success_rate']:>7.3f}"
             f"{m['path_length_weighted_success_rate']:>8.3f}"
             f"{m['path_length_weighted_goal_condition_success_rate']:>8.3f}"
@@ -354,6 +415,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
     parser.add_argument("--info", default="full", choices=get_args(InfoLevel), help="TATC commander's info")
+    parser.add_argument(
+        "--protocol",
+        default="native",
+        choices=get_args(Protocol),
+        help="edh only: teach drives TEACh's RemoteModel routes as TEACh's runner does (RGB JPEG frames)",
+    )
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--url", help="base URL of a running service")
     where.add_argument("--start-service", action="store_true", help="start a service for this run")
@@ -380,6 +447,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             tasks=tuple(args.tasks),
             data=str(args.data.resolve()) if args.data else None,
             info=args.info,
+            protocol=args.protocol,
         )
     except ValueError as error:
         parser.error(str(error))

@@ -13,10 +13,22 @@ from pathlib import Path
 
 import pytest
 
-from harness.evaluate import EPISODES_DIR, METRICS_FILE, EvalConfig, RunMismatch, prepare_run
+from harness.evaluate import (
+    EPISODES_DIR,
+    METRICS_FILE,
+    EvalConfig,
+    RunMismatch,
+    episode_for,
+    prepare_run,
+    run_slot,
+)
+from harness.runner import session_payload
 from harness.service import REPO_ROOT, RunningService, running_service
+from harness.tasks.alfred import AlfredTask
+from symbolic.thor import ALFRED_HFOV_DEG
 
 SHORT_TASK = "Water Plant"  # the shortest task: each episode takes seconds, not minutes
+SMALL_CAMERA_SIDE = 200  # pixels; the runs test the CLI, not the agent
 KILL_TIMEOUT_S = 300.0
 
 
@@ -26,7 +38,7 @@ def service() -> Iterator[RunningService]:
         yield running
 
 
-def _eval_command(out: Path, url: str, n: int) -> list[str]:
+def _eval_command(out: Path, url: str, n: int, workers: int = 1) -> list[str]:
     return [
         sys.executable,
         "-m",
@@ -36,8 +48,12 @@ def _eval_command(out: Path, url: str, n: int) -> list[str]:
         "tfd",
         "--n",
         str(n),
+        "--workers",
+        str(workers),
         "--tasks",
         SHORT_TASK,
+        "--camera",
+        str(SMALL_CAMERA_SIDE),
         "--url",
         url,
         "--out",
@@ -49,8 +65,21 @@ def _episode_files(out: Path) -> list[Path]:
     return sorted((out / EPISODES_DIR).glob("*.json"))
 
 
+def _finish(out: Path, url: str, n: int, workers: int) -> subprocess.CompletedProcess[str]:
+    done = subprocess.run(
+        _eval_command(out, url, n, workers),
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
+        timeout=KILL_TIMEOUT_S,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done
+
+
 def test_a_killed_run_resumes_and_counts_every_episode_once(service: RunningService, tmp_path: Path) -> None:
-    out, n = tmp_path / "run", 3
+    out, n = tmp_path / "run", 4
     first = subprocess.Popen(
         _eval_command(out, service.base_url, n),
         cwd=REPO_ROOT,
@@ -67,25 +96,33 @@ def test_a_killed_run_resumes_and_counts_every_episode_once(service: RunningServ
     assert 1 <= len(survivors) < n, "the kill should land after the first episode and before the last"
     assert not (out / METRICS_FILE).exists()
 
-    second = subprocess.run(
-        _eval_command(out, service.base_url, n),
-        cwd=REPO_ROOT,
-        capture_output=True,
-        text=True,
-        timeout=KILL_TIMEOUT_S,
-        check=False,
-    )
-    assert second.returncode == 0, second.stderr[-2000:]
+    second = _finish(out, service.base_url, n, workers=2)  # the rest, two at a time
     files = _episode_files(out)
     assert [json.loads(p.read_text())["slot"] for p in files] == list(range(n))
     for name, mtime in survivors.items():  # finished episodes were not run again
         assert (out / EPISODES_DIR / name).stat().st_mtime_ns == mtime
+    assert f"{n}/{n}" in second.stderr and "eval tfd" in second.stderr  # the progress bar
     metrics = json.loads((out / METRICS_FILE).read_text())
     assert metrics["episodes_run"] == n
     assert metrics["metrics"]["success"]["num_evals"] == n
     assert metrics["metrics"]["per_task"][SHORT_TASK]["n"] == n
-    assert len({e["instance_id"] for e in metrics["episodes"]}) == n
-    assert "SR" in second.stdout and SHORT_TASK in second.stdout  # the table
+    ids = [e["instance_id"] for e in metrics["episodes"]]
+    assert len(set(ids)) == n and set(metrics["per_instance"]) == set(ids)
+    for row in metrics["episodes"]:
+        assert row["steps"] >= 1 and row["wall_s"] > 0
+    for key in ("goal_condition_success", "path_length_weighted_success_rate", "failure_histogram"):
+        assert key in metrics["metrics"]
+    for instance in metrics["per_instance"].values():  # TEACh's evaluate_traj fields
+        assert {"success", "goal_condition_success", "success_spl", "goal_condition_spl", "traj_len"} <= set(
+            instance
+        )
+    assert "TLW-SR" in second.stdout and SHORT_TASK in second.stdout  # the table
+
+    mtimes = {path.name: path.stat().st_mtime_ns for path in files}
+    third = _finish(out, service.base_url, n, workers=2)  # nothing left: nothing runs, same metrics
+    assert {path.name: path.stat().st_mtime_ns for path in _episode_files(out)} == mtimes
+    assert json.loads((out / METRICS_FILE).read_text())["metrics"] == metrics["metrics"]
+    assert "TLW-SR" in third.stdout
 
 
 def test_resuming_with_other_options_is_refused_and_changes_nothing(tmp_path: Path) -> None:
@@ -107,6 +144,8 @@ def test_resuming_with_other_options_is_refused_and_changes_nothing(tmp_path: Pa
         ({"split": "test"}, "split must be"),
         ({"benchmark": "alfred", "split": "valid_unseen"}, "ALFRED"),
         ({"tasks": ("Make Pancakes",)}, "unknown task"),
+        ({"protocol": "teach"}, "runs EDH instances"),
+        ({"benchmark": "edh", "protocol": "teach"}, "needs --perception learned --planner model"),
     ],
 )
 def test_bad_options_are_refused(changes: dict[str, object], message: str) -> None:
@@ -119,3 +158,37 @@ def test_bad_options_are_refused(changes: dict[str, object], message: str) -> No
     }
     with pytest.raises(ValueError, match=message):
         EvalConfig(**{**base, **changes})  # type: ignore[arg-type]
+
+
+@pytest.mark.data
+def test_alfred_instruction_episodes_run_and_score_with_alfred_goal_conditions(
+    service: RunningService, shared_data_dir: Path
+) -> None:
+    """ALFRED mode: a valid_seen trajectory's world and instruction, a session in mode ``instruction`` with
+    ALFRED's 300x300 camera at 60°, scored with ALFRED's goal conditions."""
+    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
+        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
+    config = EvalConfig(
+        benchmark="alfred", split="valid_seen", n=7, camera_side=300, hfov_deg=ALFRED_HFOV_DEG
+    )
+    first_types = [episode_for(config, slot).task for slot in range(7)]
+    assert len({task.task_type for task in first_types if isinstance(task, AlfredTask)}) == 7, (
+        "the first seven slots take one trajectory of each ALFRED task type"
+    )
+    slot = next(
+        i for i, task in enumerate(first_types) if getattr(task, "task_type", "") == "pick_and_place_simple"
+    )
+    episode = episode_for(config, slot)
+    assert episode.instruction and isinstance(episode.task, AlfredTask)
+    payload = session_payload(episode, config.options())
+    assert payload["mode"] == "instruction" and payload["instruction"] == episode.instruction
+    assert (payload["camera"]["width"], payload["camera"]["height"]) == (300, 300)
+    assert payload["camera"]["hfov_deg"] == ALFRED_HFOV_DEG == 60.0
+    assert "dialogue" not in payload
+
+    record = run_slot(config, slot, service.base_url)
+    assert record["task_name"] == "pick_and_place_simple"
+    initial = episode.check(episode.world)
+    assert not initial.success and initial.total >= 1  # ALFRED's conditions, unmet at the start
+    assert record["outcome"]["success"], record["unsatisfied"]
+    assert record["outcome"]["gc_total"] == initial.total
