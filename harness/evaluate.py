@@ -407,7 +407,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--split", default="valid_unseen", help="valid_unseen (default), valid_seen or train")
     parser.add_argument("--n", type=int, required=True, help="episodes (slots 0..n-1)")
     parser.add_argument("--workers", type=int, default=1, help="episodes run in parallel")
-    parser.add_argument("--out", type=Path, help="run folder (default: eval_runs/<benchmark>_<split>)")
+    parser.add_argument("--out", type=Path, help="run folder (default: runs/eval/<benchmark>_<split>)")
     parser.add_argument("--data", type=Path, help="TEACh-format instances to run instead of generating")
     parser.add_argument("--tasks", nargs="+", default=list(BENCHMARK_TASKS), metavar="TASK")
     parser.add_argument("--camera", type=int, help="square frame side (default 300)")
@@ -451,7 +451,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     except ValueError as error:
         parser.error(str(error))
-    out = args.out or Path("eval_runs") / f"{args.benchmark}_{split}"
+    out = args.out or Path("runs") / "eval" / f"{args.benchmark}_{split}"
     try:
         with service_url(args.url, args.port, args.start_service) as base_url:
             result = evaluate(config, out, base_url, args.workers)

@@ -12,6 +12,10 @@ with the model planner, which reads the commander's instructions). The loop:
   commander answers from the world as it is then; a "Stop" that asks is a wait, not the end;
 - the episode ends when the commander finds every goal condition satisfied, the follower stops without
   asking, or TEACh's limits (1000 actions, 30 failed) or the turn limit are reached.
+
+``run_obedient_episode`` replaces the follower by one that carries out each instruction to the letter in
+the simulator (stands where told, clicks where told): what the commander's instructions are worth by
+themselves, an upper bound for any follower.
 """
 
 from __future__ import annotations
@@ -19,10 +23,12 @@ from __future__ import annotations
 import contextlib
 import time
 from collections import Counter
-from dataclasses import replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import httpx
 
+from harness.camera import CameraSpec
 from harness.client import AgentClient, ServiceError, pose_of
 from harness.commander.bot import Commander, InfoLevel
 from harness.commander.tools import CommanderTools
@@ -39,6 +45,9 @@ from harness.runner import (
 )
 from harness.simulator import Simulator
 from harness.tasks.alfred import AlfredTask
+from symbolic.commands import CommandItem, parse_command
+from symbolic.ontology import load_ontology
+from symbolic.subgoals import SubgoalAction
 from symbolic.thor import TEACH_LOOK_STEP_DEG
 
 MAX_COMMANDER_TURNS = 80  # answers per episode; a follower that keeps asking is stuck
@@ -138,3 +147,60 @@ def run_tatc_episode(
         final_report=final_report,
         error_detail=error_detail,
     )
+
+
+# ---- a follower that does exactly what it is told --------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ObedientRun:
+    """How the commander fared with a follower that carries out each instruction to the letter."""
+
+    success: bool
+    turns: int  # commander answers
+    stuck: str | None  # why the follower could not carry out an instruction, if it could not
+
+
+def obey(simulator: Simulator, items: Sequence[CommandItem]) -> str | None:
+    """Carry out one instruction to the letter: stand where a stand hint says (teleported: the hint's cell
+    centre, yaw and horizon), click where a click hint says. Returns why it could not, or None."""
+    for item in items:
+        if item.stand is not None:
+            stand = item.stand
+            agent = simulator.world.agent
+            horizon = agent.horizon if stand.horizon is None else stand.horizon
+            simulator.world.agent = replace(
+                agent, x=stand.x, z=stand.z, yaw=int(stand.yaw) % 360, horizon=horizon
+            )
+            continue
+        if item.subgoal.action is SubgoalAction.NAVIGATE:
+            continue
+        if item.click is None:
+            return f"{item}: no click to act at"
+        result = simulator.step(item.subgoal.action.value, item.click.x, item.click.y)
+        if not result.success:
+            return f"{item}: {result.failure.value if result.failure else 'failed'} ({result.message})"
+    return None
+
+
+def run_obedient_episode(
+    episode: Episode, camera: CameraSpec, info: InfoLevel = "full", max_turns: int = MAX_COMMANDER_TURNS
+) -> ObedientRun:
+    """The commander's instructions at ``info``, carried out to the letter in the simulator: an upper bound
+    of what a follower can reach with them (at ``full`` information every step has a stand and a click)."""
+    if isinstance(episode.task, AlfredTask):
+        raise ValueError("TATC episodes are TEACh tasks; ALFRED tasks have no commander")
+    ontology = load_ontology()
+    simulator = Simulator(episode.world.copy(), camera, look_step_deg=TEACH_LOOK_STEP_DEG)
+    commander = Commander(episode.task, CommanderTools(camera, ontology=ontology), info)
+    for turn in range(1, max_turns + 1):
+        answer = commander.respond(simulator.world)
+        if answer.task_done:
+            return ObedientRun(True, turn, None)
+        items = parse_command(answer.text, ontology)
+        if items is None:
+            return ObedientRun(False, turn, f"not an instruction: {answer.text}")
+        stuck = obey(simulator, items)
+        if stuck is not None:
+            return ObedientRun(False, turn, stuck)
+    return ObedientRun(episode.check(simulator.world).success, max_turns, "turn limit")

@@ -15,6 +15,7 @@ import pytest
 
 from harness.camera import CameraSpec
 from harness.commander.bot import DONE_TEXT, Commander, InfoLevel
+from harness.commander.episode import obey, run_obedient_episode
 from harness.commander.tools import CommanderTools
 from harness.episodes.model import Episode
 from harness.episodes.teach_format import replay
@@ -26,7 +27,6 @@ from harness.tasks.teach import TaskInstance
 from harness.world import World
 from symbolic.commands import CommandItem, parse_command
 from symbolic.ontology import Ontology, load_ontology
-from symbolic.subgoals import SubgoalAction
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_LOOK_STEP_DEG
 
 CAMERA = CameraSpec(300, 300, TEACH_HFOV_DEG)
@@ -189,21 +189,20 @@ def test_the_commander_opens_with_the_task_and_says_when_it_is_done(
         Commander(task_of(water_plant), tools, "everything")  # type: ignore[arg-type]
 
 
-def obey(simulator: Simulator, items: list[CommandItem]) -> None:
-    """A follower that does exactly what it is told: stands where the hint says, clicks where it says."""
-    for item in items:
-        if item.stand is not None:
-            stand = item.stand
-            agent = simulator.world.agent
-            simulator.world.agent = replace(
-                agent, x=stand.x, z=stand.z, yaw=int(stand.yaw) % 360, horizon=stand.horizon or 0.0
-            )
-            continue
-        if item.subgoal.action is SubgoalAction.NAVIGATE:
-            continue
-        assert item.click is not None, f"full information gives every interaction a click: {item}"
-        result = simulator.step(item.subgoal.action.value, item.click.x, item.click.y)
-        assert result.success, f"{item}: {result.failure} ({result.message})"
+def test_obeying_means_standing_and_clicking_where_told(
+    water_plant: Episode, tools: CommanderTools, onto: Ontology
+) -> None:
+    simulator = Simulator(water_plant.world.copy(), CAMERA, look_step_deg=TEACH_LOOK_STEP_DEG)
+    items = first_instruction(water_plant, tools, "full", onto)
+    assert obey(simulator, items) is None
+    stand = items[0].stand
+    assert stand is not None
+    agent = simulator.world.agent
+    assert (agent.x, agent.z, agent.yaw, agent.horizon) == (stand.x, stand.z, stand.yaw, stand.horizon)
+    opened = [o for o in simulator.world.objects.values() if o.object_type == "Cabinet" and o.is_open]
+    assert len(opened) == 1, "the click opened one cabinet"
+    plain = first_instruction(water_plant, tools, "no_goal_location", onto)
+    assert obey(Simulator(water_plant.world.copy(), CAMERA), plain) == "Open Cabinet: no click to act at"
 
 
 @pytest.mark.parametrize(
@@ -211,23 +210,14 @@ def obey(simulator: Simulator, items: list[CommandItem]) -> None:
     [0, 1, 3, 4, 8],
     ids=["Water Plant", "Coffee", "Put All X On Y", "Boil X", "N Cooked Slices Of X In Y"],
 )
-def test_a_follower_that_obeys_full_information_completes_the_task(
-    index: int, tools: CommanderTools, onto: Ontology
-) -> None:
+def test_a_follower_that_obeys_full_information_completes_the_task(index: int) -> None:
     """The commander's instructions are enough: standing where it says and clicking where it says solves
     the task (Boil X: the food already in the pot is not asked for again; N Cooked Slices: the commander
     keeps its plan instead of changing its mind each turn)."""
     episode = generated_tfd_episode("valid_unseen", index, CAMERA)
-    simulator = Simulator(episode.world.copy(), CAMERA, look_step_deg=TEACH_LOOK_STEP_DEG)
-    commander = Commander(task_of(episode), tools, "full")
-    for _ in range(30):
-        turn = commander.respond(simulator.world)
-        if turn.task_done:
-            break
-        items = parse_command(turn.text, onto)
-        assert items is not None, turn.text
-        obey(simulator, items)
-    assert episode.check(simulator.world).success, episode.check(simulator.world).unsatisfied
+    run = run_obedient_episode(episode, CAMERA, "full", max_turns=30)
+    assert run.success, run.stuck
+    assert run.stuck is None and run.turns >= 2
 
 
 # ---- a whole TATC episode over HTTP ----------------------------------------------------------------------
