@@ -86,13 +86,13 @@ class TeachForm:
         """A file part's bytes. A part sent without a file name (``requests`` does so when RemoteModel's
         ``img_name`` is None) arrives as text, decoded as Latin-1 (image bytes are never valid UTF-8), and
         is turned back into the same bytes."""
-        parts = [*self.files.get(name, []), *(t.encode("latin-1") for t in self.texts.get(name, []))]
+        parts = self.file_list(name)
         if len(parts) > 1:
             raise ApiError(422, VALIDATION_ERROR, f"{name}: sent {len(parts)} files; send one")
         return parts[0] if parts else None
 
     def file_list(self, name: str) -> list[bytes]:
-        return [*self.files.get(name, []), *(t.encode("latin-1") for t in self.texts.get(name, []))]
+        return [*self.files.get(name, []), *(_text_part_bytes(t) for t in self.texts.get(name, []))]
 
     def json_object(self, name: str, *, required: bool) -> dict[str, Any] | None:
         """A text field holding a JSON object (``edh_instance``); 422 naming the field otherwise."""
@@ -114,6 +114,16 @@ class TeachForm:
                 422, VALIDATION_ERROR, f"{name}: expected a JSON object, got {type(value).__name__}"
             )
         return cast(dict[str, Any], value)
+
+
+def _text_part_bytes(text: str) -> bytes:
+    """The bytes of a part that arrived as text: Starlette decodes bytes that are not UTF-8 as Latin-1, which
+    encoding back restores exactly; text that was UTF-8 goes back to its UTF-8 bytes (then it is no image,
+    and decoding it says so)."""
+    try:
+        return text.encode("latin-1")
+    except UnicodeEncodeError:
+        return text.encode("utf-8")
 
 
 async def read_teach_form(request: Request, settings: Settings) -> TeachForm:

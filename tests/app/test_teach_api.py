@@ -363,6 +363,13 @@ BAD_STEPS: list[tuple[str, Callable[[], dict[str, Any]], int, str, str]] = [
     ("never started", lambda: next_form(name="nobody"), 404, "edh_instance_not_started", "'nobody'"),
     ("no image", lambda: {"data": next_form()["data"]}, 422, "validation_error", "img: file required"),
     ("not an image", lambda: next_form(img=b"GIF89a nonsense"), 422, "invalid_image", "img:"),
+    (
+        "text that is no image",
+        lambda: {"data": {**next_form()["data"], "img": "h\u00e9llo \u20ac"}},
+        422,
+        "invalid_image",
+        "img: is not a PNG or JPEG image",
+    ),
     ("prev_action not JSON", lambda: next_form(prev_action="{"), 422, "validation_error", "prev_action"),
     (
         "unknown prev action",
