@@ -264,3 +264,15 @@ def test_a_tatc_episode_with_the_commander_in_its_own_process(
     requests = {(e.get("method"), e.get("path")) for e in service.log_events()}
     assert ("POST", "/v1/sessions") in requests, "the follower's session was made over HTTP"
     assert any(path and path.endswith("/utterances") for _, path in requests), "the dialogue went over HTTP"
+
+
+def test_the_commander_process_loads_none_of_the_follower() -> None:
+    """The commander reaches the follower only over HTTP: its process imports no agent, app or models."""
+    probe = (
+        "import sys, harness.commander.cli, harness.commander.episode, harness.evaluate; "
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'agent', 'app', 'models', 'torch'}))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=REPO_ROOT, capture_output=True, text=True, timeout=120, check=True
+    )
+    assert done.stdout.strip() == "[]"
