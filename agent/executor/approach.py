@@ -21,7 +21,10 @@ from agent.executor.step import Act, Outcome
 from agent.mapping import GridFrame
 from agent.navigation.base import NavGoal, body_fits
 from agent.navigation.goals import interaction_goal_cells
+from symbolic.subgoals import SubgoalAction
 from symbolic.thor import INTERACTION_DISTANCE_M
+
+A = SubgoalAction
 
 HEADING_KEEP_M = 0.3
 """Metres: a mapped instance this close to the one walked toward last step is that one."""
@@ -51,7 +54,7 @@ class Approach(InstanceChoice):
             kept = [c for c in clusters if math.hypot(c.x - hx, c.z - hz) <= HEADING_KEEP_M]
             clusters = kept + [c for c in clusters if c not in kept]
         for cluster in clusters:
-            front = self._front_cells(cluster) if obj in self.onto.enclosing else None
+            front = self._front_cells(cluster) if self._needs_inside(obj) else None
             goal = self._goal_cells(cluster, attempt, obj, front)
             face = cluster.cells
             if front is not None:  # face its middle, so its inside fills the view once open
@@ -79,6 +82,14 @@ class Approach(InstanceChoice):
             attempt.unreachable.append((cluster.x, cluster.z))
             self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
         return self._search(obj, attempt)
+
+    def _needs_inside(self, obj: str) -> bool:
+        """Whether the plan is about to open the container X or put something into it: then the agent
+        stands on its front side, where the inside shows; to close it, any side will do."""
+        if obj not in self.onto.enclosing:
+            return False
+        upcoming = next((s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE), None)
+        return upcoming is not None and upcoming.obj == obj and upcoming.action in (A.OPEN, A.PLACE)
 
     def _sides(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
         """The four sides of a piece of furniture (90° sectors around its centre), most open floor first:

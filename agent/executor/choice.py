@@ -54,7 +54,9 @@ class InstanceChoice(StepContext):
         """Whether the plan's next use of an X the agent put down means another X.
 
         Type-level plans say "Pickup Pot" for the pot just put on a counter (to carry it on to the sink)
-        and for the next watch of "put all watches on the plate". The difference is what follows: taking
+        and for the next watch of "put all watches on the plate". An X put down and taken straight back up
+        (nothing but walking between) is another X: the first was moved out of the way (a clean pan out
+        of the sink, so the dirty one fits). Otherwise what follows decides: taking
         an X up to put it where it lies now ("Place Plate, Navigate Watch, Pickup Watch, Place Plate"), or
         back into a sink, microwave or toaster it already went through (the next dirty plate of "clean
         all plates"), would repeat a finished step, so it means another X; any other use (slice it, put
@@ -64,6 +66,8 @@ class InstanceChoice(StepContext):
         upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
         if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
             return False
+        if self._just_put_down(obj):
+            return True  # put down and taken straight back up would be pointless: the plan cleared the way
         went = self.state.memory.placed_into.get(obj)
         if not went:
             return True

@@ -380,7 +380,7 @@ class _Run(MakeRoom, MotionSafety):
     def _before_front(self, obj: str, chosen: VisibleInstance) -> bool:
         """For a container (Fridge, Cabinet...): the agent stands on its front side, where its inside will
         show once open; for anything else, always."""
-        if obj not in self.onto.enclosing:
+        if not self._needs_inside(obj):
             return True
         body = self._container_body(obj, chosen.point)
         front = self._front_cells(body) if body is not None else None
