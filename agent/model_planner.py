@@ -121,7 +121,10 @@ class ModelPlanner:
         plan, cut = _truncated([item.subgoal for item in command], self.config.max_subgoals, "instructed")
         repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
         LOG.info("commander instruction: %s", format_command(command))
-        return PlanOutcome(plan=tuple(repaired.plan), repair_log=(*cut, *repaired.log), source="commander")
+        hints = tuple(item for item in command if item.stand is not None or item.click is not None)
+        return PlanOutcome(
+            plan=tuple(repaired.plan), repair_log=(*cut, *repaired.log), source="commander", hints=hints
+        )
 
 
 def latest_command(context: PlanningContext, ontology: Ontology) -> list[CommandItem] | None:

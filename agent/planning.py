@@ -15,6 +15,7 @@ from types import MappingProxyType
 from typing import Literal, Protocol
 
 from symbolic.belief import BeliefState
+from symbolic.commands import CommandItem
 from symbolic.ontology import Ontology
 from symbolic.predicates import POUR_BASINS
 from symbolic.repair import RepairEvent, repair_plan
@@ -61,6 +62,9 @@ class PlanOutcome:
     plan: tuple[Subgoal, ...]
     repair_log: tuple[RepairEvent, ...]
     source: PlanSource
+    hints: tuple[CommandItem, ...] = ()
+    """A commander's instruction items that carry where to stand or click (``symbolic.commands``), in the
+    order of their subgoals in the plan; the executor follows them (TATC)."""
 
 
 @dataclass(frozen=True)

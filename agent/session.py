@@ -33,6 +33,7 @@ from agent.executor import (
     Executor,
     ExecutorConfig,
     FrameDigest,
+    Hint,
     HistoryStep,
     SessionMapView,
     StepInputs,
@@ -54,6 +55,7 @@ from agent.planning import (
     DialogueTurn,
     Planner,
     PlanningContext,
+    PlanOutcome,
     PlanSource,
     Speaker,
     belief_after,
@@ -260,6 +262,7 @@ class AgentSession:
             limits=limits,
             given_subgoals=given_subgoals,
         )
+        session._adopt_hints(outcome)
         if history:
             session._replay(history, history_start)
         return session
@@ -281,9 +284,22 @@ class AgentSession:
             self.repair_log = list(outcome.repair_log)
             self.pointer = 0
             self.done = False
+            self._adopt_hints(outcome)
         self.dialogue.append(turn)
         self.updated_at = now or datetime.now(UTC)
         return replanned
+
+    def _adopt_hints(self, outcome: PlanOutcome) -> None:
+        """The commander's stand and click hints of a new plan, stand poses in the map's frame."""
+        hints = []
+        for item in outcome.hints:
+            stand = look = None
+            if item.stand is not None:
+                stand = self._mapped(Pose(item.stand.x, item.stand.z, item.stand.yaw % 360.0))
+                look = item.stand.horizon
+            click = (item.click.x, item.click.y) if item.click is not None else None
+            hints.append(Hint(item.subgoal, stand, look, click))
+        self.executor.state.hints = hints
 
     def current_subgoal(self) -> Subgoal | None:
         """The subgoal at the pointer, or None when the plan is exhausted."""
@@ -342,6 +358,9 @@ class AgentSession:
             self.dead_reckoned = False
         self._sync_hand(obs)
         semantic_map = self._ensure_map(pose)
+        for hint in self.executor.state.hints:  # places the commander sent it to, seen or not yet
+            if hint.stand is not None:
+                semantic_map.cover(hint.stand.x, hint.stand.z)
         previous = self.pose
         if self.last_action in MOVES and success.success is False and previous is not None:
             semantic_map.record_collision(previous, self.last_action)

@@ -13,7 +13,7 @@ from agent.executor.config import ExecutorConfig, SearchConfig
 from agent.executor.executor import Decision, Executor
 from agent.executor.mapview import IgnoredSpot, MapCluster, SessionMapView
 from agent.executor.replay import HistoryStep, history_poses, holding_before
-from agent.executor.state import ExecutorState
+from agent.executor.state import ExecutorState, Hint
 from agent.executor.step import StepInputs
 from agent.executor.success import (
     FrameDigest,
@@ -32,6 +32,7 @@ __all__ = [
     "ExecutorConfig",
     "ExecutorState",
     "FrameDigest",
+    "Hint",
     "HistoryStep",
     "IgnoredSpot",
     "MapCluster",

@@ -298,22 +298,21 @@ class InstanceChoice(StepContext):
         anchor = self._anchor(obj)
         box = self._hint_box(obj, attempt)
         clusters = []
-        for cluster in self.view.clusters(obj):
-            if anchor is not None and cluster.distance_to(*anchor) <= self.cfg.anchor_radius_m:
-                cluster = cluster.around(anchor[0], anchor[1], self.cfg.part_radius_m) or cluster
+        for mapped in self.view.clusters(obj):
+            cluster: MapCluster | None = mapped
+            if anchor is not None and mapped.distance_to(*anchor) <= self.cfg.anchor_radius_m:
+                cluster = mapped.around(anchor[0], anchor[1], self.cfg.part_radius_m) or mapped
+            if box is not None and cluster is not None:
+                cluster = cluster.within(box)
+            for full in attempt.full:
+                cluster = cluster.outside(full) if cluster is not None else None
+            if cluster is None:
+                continue
             if any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
                 continue
             if self._switched((cluster.x, 0.0, cluster.z), attempt.switched):
                 continue
-            if box is not None:
-                cluster = cluster.within(box)
-                if cluster is None:
-                    continue
-            elif not attempt.accept_second and self._second_rate(obj, cluster.x, cluster.z):
-                continue
-            for full in attempt.full:
-                cluster = cluster.outside(full) if cluster is not None else None
-            if cluster is None:
+            if box is None and not attempt.accept_second and self._second_rate(obj, cluster.x, cluster.z):
                 continue
             on = self.state.memory.switched_on.get(obj, [])
             point = (cluster.x, 0.0, cluster.z)

@@ -33,6 +33,7 @@ import numpy as np
 
 from agent.executor.clicks import Click, ClickPurpose, VisibleInstance
 from agent.executor.config import ExecutorConfig
+from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.room import MakeRoom
 from agent.executor.state import Attempt, ExecutorState, Pending
@@ -111,7 +112,7 @@ class Executor:
         return run.decide()
 
 
-class _Run(MakeRoom, MotionSafety):
+class _Run(MakeRoom, HintFollowing, MotionSafety):
     """One call of ``Executor.decide`` (module docstring): the step itself, on top of the mixins."""
 
     def decide(self) -> Decision:
@@ -303,6 +304,7 @@ class _Run(MakeRoom, MotionSafety):
             self.state.attempt = attempt
             memory = self.state.memory
             obj = subgoal.obj
+            attempt.hint = self._hint_for(subgoal)
             if memory.pins and memory.pins[0][:2] == (subgoal.action.value, obj):
                 attempt.pinned = memory.pins.pop(0)[2]
                 return attempt
@@ -402,11 +404,17 @@ class _Run(MakeRoom, MotionSafety):
         if subgoal.action is A.NAVIGATE:
             if self.state.belief.held == obj:
                 return Done(f"IsGrasped: {obj} is in hand")
+            followed = self._follow_stand(attempt)
+            if followed is not None:
+                return followed
             chosen = self._chosen_visible(obj, attempt)
             if chosen is not None and interactive(self.view, obj) and self._before_front(obj, chosen):
                 return Done(f"Interactive({obj}): observed {chosen.nearest_m:.2f} m away")
             return self._approach(obj, attempt)
         action = ACTION_NAME_FOR_SUBGOAL[subgoal.action]
+        hinted = self._hinted_click(attempt)
+        if hinted is not None:
+            return Act(action, f"Hint: {action} where the commander said", purpose="plan", click=hinted)
         chosen = self._chosen_visible(obj, attempt)
         if chosen is not None:
             purpose: ClickPurpose = "surface" if subgoal.action is A.PLACE else "object"

@@ -518,9 +518,9 @@ class ContainerSearch(Approach):
             boxes.append((lo, (float(part.xs.max()), part.top_m, float(part.zs.max()))))
         if not boxes:
             return None
-        lo = tuple(min(b[0][k] for b in boxes) for k in range(3))
-        hi = tuple(max(b[1][k] for b in boxes) for k in range(3))
-        return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+        low = [min(b[0][k] for b in boxes) for k in range(3)]
+        high = [max(b[1][k] for b in boxes) for k in range(3)]
+        return (low[0], low[1], low[2]), (high[0], high[1], high[2])
 
     def _visited_box(self, visit: ContainerVisit) -> Box:
         """What a finished visit rules out: the opened instance's extent, else the region around its part."""

@@ -57,6 +57,17 @@ class Pending:
     # count near the click before the door swung (``Memory.fronts``)
 
 
+@dataclass(frozen=True)
+class Hint:
+    """A commander's help with one subgoal (TATC, ``symbolic.commands``): where to stand, in the map's
+    frame, how far to look down there (degrees), and where to click from there (column, row fractions)."""
+
+    subgoal: Subgoal
+    stand: Pose | None = None
+    look: float | None = None
+    click: tuple[float, float] | None = None
+
+
 @dataclass
 class Memory:
     """Where the agent dealt with each object type (world points): later subgoals pick the same instance."""
@@ -82,6 +93,8 @@ class Memory:
     there, not a dirty one in the sink beside it."""
     switched_on: dict[str, list[tuple[int, Point]]] = field(default_factory=dict)
     """Switch type -> (segmentation id, where) of the switches of a row (stove knobs) the agent turned on."""
+    hint_pose: Pose | None = None
+    """Where the agent stands after reaching a commander's stand hint: the clicks hinted next hold there."""
     pins: list[tuple[str, str, int]] = field(default_factory=list)
     """(action, type, segmentation id): the next subgoal "action type" means that instance (``room``)."""
     room_made_in: list[str] = field(default_factory=list)
@@ -147,6 +160,9 @@ class Attempt:
     unsticks: int = 0  # moves made because the navigator saw no way out
     tried_source: bool = False  # went to look where the type's pieces came from
     search: SearchState = field(default_factory=SearchState)
+    hint: Hint | None = None  # the commander's help with this subgoal (TATC)
+    hint_failed: bool = False  # the hinted stand could not be reached: the agent's own way then
+    hint_misses: int = 0  # steps the navigator found no way to the hinted stand
     pinned: int | None = None  # the one instance this subgoal means (``Memory.pins``)
     full: list[Box] = field(default_factory=list)  # extents of receptacles a Place kept failing on: full
     hint_checked: bool = False  # the container the plan opened for the target was looked into
@@ -165,6 +181,7 @@ class ExecutorState:
 
     belief: BeliefState
     memory: Memory = field(default_factory=Memory)
+    hints: list[Hint] = field(default_factory=list)  # the commander's, in plan order, not yet used
     attempt: Attempt | None = None
     pending: Pending | None = None
     ignored: list[IgnoredSpot] = field(default_factory=list)

@@ -350,6 +350,13 @@ class SemanticMap:
         return tuple(self._collision_events)
 
     # ----- growth ---------------------------------------------------------------------------------------
+    def cover(self, x: float, z: float, margin_m: float = 0.5) -> bool:
+        """Grow (if needed) so the world point (x, z) and ``margin_m`` around it lie in the map: a place the
+        agent was told to go to (a TATC commander's stand hint) must be plannable before it was seen."""
+        cell, margin = self.config.cell_m, self.config.cells(margin_m)
+        i, j = math.floor(x / cell), math.floor(z / cell)
+        return self._ensure_covers(i - margin, i + margin, j - margin, j + margin)
+
     def _ensure_covers(self, lo_i: int, hi_i: int, lo_j: int, hi_j: int) -> bool:
         """Grow in ``grow_step_m`` steps so global cells [lo, hi] fit, up to ``max_extent_m`` a side.
 

@@ -89,12 +89,18 @@ class Drive:
 
 
 def drive(
-    client: TestClient, world: World, subgoals: str, *, max_steps: int = 400, give_pose: bool = True
+    client: TestClient,
+    world: World,
+    subgoals: str | None,
+    *,
+    max_steps: int = 400,
+    give_pose: bool = True,
+    session: dict[str, Any] | None = None,
 ) -> Drive:
-    """Create a TfD session with oracle subgoals and run it until the agent says done (or max_steps)."""
-    created = client.post(
-        "/v1/sessions", json={"mode": "tfd", "camera": CAMERA, "subgoals": subgoals, "seed": 0}
-    )
+    """Create a session (TfD with oracle ``subgoals``, or the ``session`` body given) and run it until
+    the agent says done (or max_steps)."""
+    body = session or {"mode": "tfd", "subgoals": subgoals}
+    created = client.post("/v1/sessions", json={"camera": CAMERA, "seed": 0, **body})
     assert created.status_code == 201, created.text
     run = Drive(session_id=created.json()["session_id"], sim=simulator(world))
     for step in range(max_steps):

@@ -7,14 +7,18 @@ import math
 from collections.abc import Iterator
 
 import pytest
-from executor_support import KITCHEN_SEED, drive, kitchen
+from executor_support import CAMERA, KITCHEN_SEED, drive, kitchen
 from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
+from harness.camera import CameraSpec
+from harness.commander.tools import CommanderTools
 from harness.physics import resting_center
 from harness.world import World, WorldObject
 from harness.worldgen import generate_kitchen
+from symbolic.commands import ClickHint, CommandItem, StandHint, format_command
+from symbolic.subgoals import Subgoal, SubgoalAction
 
 
 @pytest.fixture(scope="module")
@@ -201,3 +205,30 @@ def test_a_pan_goes_onto_a_burner_once_the_pot_standing_there_is_taken_off(clien
     assert after[pot.object_id].parent_id != burner.object_id
     rules = [event["rule"] for answer in run.answers for event in answer["plan"]["repair_log"]]
     assert "make-room" in rules, rules
+
+
+def test_a_tatc_follower_stands_and_clicks_where_the_commander_says(client: TestClient) -> None:
+    """TATC with full information: the commander's instruction carries the pose to stand at and the pixel
+    to click (found with TEACh's SelectOid on the ground truth); the follower goes there, clicks there."""
+    world = kitchen()
+    (apple,) = world.of_type("Apple")
+    where = CommanderTools(CameraSpec(CAMERA["width"], CAMERA["height"], CAMERA["hfov_deg"])).select_oid(
+        world, apple.object_id, "Pickup"
+    )
+    assert where.stand is not None and where.click is not None, where
+    stand = StandHint(*where.stand, horizon=where.horizon)
+    command = format_command(
+        [
+            CommandItem(Subgoal(SubgoalAction.NAVIGATE, "Apple"), stand=stand),
+            CommandItem(Subgoal(SubgoalAction.PICKUP, "Apple"), click=ClickHint(*where.click)),
+        ]
+    )
+    body = {"mode": "tatc", "planner": "model", "dialogue": [{"speaker": "Commander", "text": command}]}
+
+    run = drive(client, world, None, session=body, max_steps=80)
+
+    assert run.sim.world.agent.held == apple.object_id
+    reasons = [answer["reason"] for answer in run.answers]
+    pickup = next(i for i, r in enumerate(reasons) if r.startswith("Hint: Pickup"))
+    assert all(r.startswith("Hint:") for r in reasons[:pickup]), reasons  # no searching of its own
+    assert run.failed() == 0
