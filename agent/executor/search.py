@@ -31,6 +31,9 @@ A = SubgoalAction
 OPENED_PART_M = 0.6
 """Metres around the click of an Open that belong to the container opened (one fridge, one cabinet door)."""
 
+SAME_DOOR_M = 0.2
+"""Metres: an opened instance seen this close to a container part's centre is that part (farther, it is the
+neighbouring cabinet of the row, and this one still needs opening)."""
 FRONT_MIN_NEW_CELLS = 6
 """Map cells an opened door must add before its direction is trusted as the container's front."""
 FRONT_SAME_M = 0.5
@@ -319,7 +322,9 @@ class ContainerSearch(Approach):
         )
         opened = self.state.opened_for.setdefault(obj, [])
         if visit.stage == "open" and candidates and candidates[0].instance_id in opened:
-            return self._skip_container(obj, attempt, "was looked into already")
+            if math.dist(candidates[0].point, target) <= SAME_DOOR_M:
+                return self._skip_container(obj, attempt, "was looked into already")
+            candidates = [v for v in candidates if v.instance_id not in opened]  # its neighbour was
         part = replace(self.view.spot_cluster(target, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m)
         body = self._container_body(kind, target)
         goal = self._goal_cells(part, attempt, None, self._front_cells(body) if body is not None else None)
@@ -413,6 +418,10 @@ class ContainerSearch(Approach):
         kind = visit.object_type
         inside = visit.opened_at
         if not visit.sweep and visit.inspect_steps == 0:
+            turn = self._turn_toward(inside)  # opened from beside it: face it before looking in
+            if turn is not None and visit.looks < self.cfg.look_sweep:
+                visit.looks += 1
+                return Act(turn, f"search({obj}): face the open {kind}")
             want = self._horizon_toward_point(inside)
             visit.sweep = sorted(self._horizons(), key=lambda h: (abs(h - want), h))[: self.cfg.look_sweep]
         while visit.sweep:
