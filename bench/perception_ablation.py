@@ -1,33 +1,47 @@
 """The JARVIS seed's perception ablation: SR with oracle / learned depth / learned segmentation / both.
 
 The issue's bar: on 100 generated valid_unseen TfD episodes with oracle subgoals, SR with learned perception
-(``both``) is at least half the SR with oracle perception. Every episode runs through a real service
-subprocess over HTTP (``harness.runner``), at 300x300 with TEACh's 90° camera, once per setting; the
-settings are the service's perception back-ends ``oracle``, ``learned_depth`` (learned depth, true
-segmentation), ``learned_segmentation`` (learned segmentation, true depth) and ``learned`` (RGB only).
+(``learned``: RGB only) is at least half the SR with oracle perception. Every episode runs through a real
+service subprocess over HTTP (``harness.runner``), at 300x300 with TEACh's 90° camera, once per setting.
 Episode i is the generator's valid_unseen game i (task i % 12); games the generator cannot make are skipped
-and listed. A setting the service refuses (an older service without the ablation back-ends) is reported
-with the refusal instead of numbers.
+and listed.
 
-Run: ``.venv/bin/python -m bench.perception_ablation [--n 100]``; writes
+- ``oracle``: the service's oracle back-end (true depth and instance segmentation with every frame).
+- ``learned``: the service's learned back-end (``agent/perception/learned.py``), RGB only.
+- ``learned_depth`` / ``learned_segmentation``: one half learned, the other true. The service's session
+  schema names only ``oracle`` and ``learned``, so these run the same networks (``LearnedPerception``) in
+  the bench process and send their output through the oracle channels: learned depth with the pixels that
+  fail HLSM eq. (5)'s ``W90 < c1·E`` zeroed (no reading; the looser target threshold c2 needs the current
+  target, which the client does not know), or learned classes split into instances at the true depth's
+  discontinuities with their legend. The service's clicks still hit whatever object is under the pixel.
+
+Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; writes
 ``bench/results/perception_ablation.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, Literal
 
-from harness.client import AgentClient, ServiceError
+import numpy as np
+from tqdm import tqdm
+
+from agent.geometry import Camera
+from agent.perception.base import confident_depth
+from agent.perception.learned import LearnedConfig, LearnedPerception
+from harness.client import AgentClient, FrameEncoding, ServiceError
 from harness.metrics import EpisodeOutcome, aggregate
+from harness.render import Frame
 from harness.runner import (
     DEFAULT_CAMERA,
     EpisodeUnavailable,
-    Perception,
     RunnerOptions,
     generated_tfd_episode,
     run_episode,
@@ -39,31 +53,98 @@ SPLIT = "valid_unseen"
 SETTINGS: tuple[str, ...] = ("oracle", "learned_depth", "learned_segmentation", "learned")
 SR_RATIO_MIN = 0.5  # the issue: learned SR >= 50% of oracle SR
 CLIENT_TIMEOUT_S = 300.0
+Half = Literal["depth", "segmentation"]
 
 
-def run_setting(setting: str, episodes: Sequence[Any], base_url: str) -> dict[str, Any]:
-    """SR, GC and failure reasons of one perception setting over the episodes (or the service's refusal)."""
-    outcomes: list[EpisodeOutcome] = []
-    rows = []
-    started = time.perf_counter()
-    options = RunnerOptions(camera=DEFAULT_CAMERA, perception=cast(Perception, setting))
-    for episode in episodes:
-        with AgentClient(base_url, timeout=CLIENT_TIMEOUT_S) as client:
-            try:
-                run = run_episode(episode, client, options)
-            except ServiceError as error:
-                return {"refused": str(error)}
-        outcomes.append(run.outcome)
-        rows.append(
-            {
-                "instance_id": run.outcome.instance_id,
-                "task": run.outcome.task_name,
-                "success": run.outcome.success,
-                "steps": run.outcome.steps,
-                "end_reason": run.end_reason,
-                "failure": run.failure,
+class HalfLearnedClient(AgentClient):
+    """An AgentClient that replaces one oracle channel of every frame with the learned networks' output."""
+
+    def __init__(self, base_url: str, timeout: float, half: Half) -> None:
+        super().__init__(base_url, timeout=timeout)
+        camera = Camera(DEFAULT_CAMERA.width, DEFAULT_CAMERA.height, DEFAULT_CAMERA.hfov_deg)
+        self.half = half
+        self.perception = LearnedPerception(camera, LearnedConfig())
+
+    def step(
+        self,
+        session_id: str,
+        frame: Frame,
+        *,
+        pose: Mapping[str, float] | None = None,
+        last_action_success: bool | None = None,
+        step_index: int | None = None,
+        encoding: FrameEncoding | None = None,
+    ) -> dict[str, Any]:
+        assert frame.rgb is not None, "the runner renders rgb for every setting"
+        if self.half == "depth":
+            depth, width90 = self.perception.estimate_depth(frame.rgb)
+            trusted = confident_depth(depth, width90, None, c1=self.perception.config.c1)
+            frame = dataclasses.replace(frame, depth=np.where(trusted, depth, 0.0).astype(np.float32))
+        else:
+            seen = self.perception.estimate_classes(frame.rgb, frame.depth, None)
+            legend = {
+                i: name for i, name in seen.instance_types.items() if name in self.perception.classes.types
             }
+            frame = dataclasses.replace(frame, instances=seen.instances.astype(np.int32), legend=legend)
+        return super().step(
+            session_id,
+            frame,
+            pose=pose,
+            last_action_success=last_action_success,
+            step_index=step_index,
+            encoding=encoding,
         )
+
+
+def run_one(setting: str, index: int, base_url: str) -> dict[str, Any]:
+    """One episode of one setting (in a worker process): its outcome row, or the service's refusal."""
+    import torch
+
+    torch.set_num_threads(1)
+    episode = generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA)
+    service_perception = "learned" if setting == "learned" else "oracle"
+    options = RunnerOptions(camera=DEFAULT_CAMERA, perception=service_perception)
+    client: AgentClient
+    if setting in ("learned_depth", "learned_segmentation"):
+        half: Half = "depth" if setting == "learned_depth" else "segmentation"
+        client = HalfLearnedClient(base_url, CLIENT_TIMEOUT_S, half)
+    else:
+        client = AgentClient(base_url, timeout=CLIENT_TIMEOUT_S)
+    started = time.perf_counter()
+    with client:
+        try:
+            run = run_episode(episode, client, options)
+        except ServiceError as error:
+            return {"index": index, "refused": str(error)}
+    return {
+        "index": index,
+        "outcome": run.outcome,
+        "instance_id": run.outcome.instance_id,
+        "task": run.outcome.task_name,
+        "success": run.outcome.success,
+        "steps": run.outcome.steps,
+        "end_reason": run.end_reason,
+        "failure": run.failure,
+        "wall_s": round(time.perf_counter() - started, 1),
+    }
+
+
+def run_setting(setting: str, indices: Sequence[int], base_url: str, workers: int) -> dict[str, Any]:
+    """SR, GC and failure reasons of one perception setting over the episodes (or the service's refusal)."""
+    started = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        rows = list(
+            tqdm(
+                pool.map(run_one, [setting] * len(indices), indices, [base_url] * len(indices)),
+                total=len(indices),
+                desc=setting,
+                unit="episode",
+            )
+        )
+    refused = [row for row in rows if "refused" in row]
+    if refused:
+        return {"refused": refused[0]["refused"]}
+    outcomes: list[EpisodeOutcome] = [row.pop("outcome") for row in rows]
     metrics = aggregate(outcomes)
     return {
         "success_rate": metrics["success"]["success_rate"],
@@ -81,27 +162,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
     parser.add_argument("--settings", nargs="*", default=list(SETTINGS), choices=SETTINGS)
+    parser.add_argument("--workers", type=int, default=2, help="episodes driven at once (2 cores)")
     parser.add_argument("--url", help="use a running service instead of starting one")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    episodes, skipped = [], []
+    indices, skipped = [], []
     for index in range(args.n):
         try:
-            episodes.append(generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA))
+            generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA)
+            indices.append(index)
         except EpisodeUnavailable:
             skipped.append(index)
     results: dict[str, Any] = {}
     if args.url is not None:
-        results = {s: run_setting(s, episodes, args.url) for s in args.settings}
+        results = {s: run_setting(s, indices, args.url, args.workers) for s in args.settings}
     else:
         with running_service() as service:
-            results = {s: run_setting(s, episodes, service.base_url) for s in args.settings}
+            results = {s: run_setting(s, indices, service.base_url, args.workers) for s in args.settings}
     report: dict[str, Any] = {
         "split": SPLIT,
         "camera": [DEFAULT_CAMERA.width, DEFAULT_CAMERA.height, DEFAULT_CAMERA.hfov_deg],
         "planner": "oracle (expert subgoals)",
-        "episodes": len(episodes),
+        "episodes": len(indices),
         "skipped_indices": skipped,
+        "workers": args.workers,
+        "half_settings_run_in": "bench process, sent through the oracle channels (module docstring)",
         "settings": results,
     }
     oracle, learned = results.get("oracle", {}), results.get("learned", {})

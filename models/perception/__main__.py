@@ -3,7 +3,8 @@
 - ``render-data --out DIR [--split train|valid_unseen] [--worlds N]``: runs the harness's frame renderer
   (``python -m harness.perception_data frames``) in a subprocess, since ``models`` never imports the harness.
 - ``train --task depth|segmentation --frames DIR --out CKPT [--valid DIR] [--steps N] ...``: trains or
-  resumes (run state in ``--run-dir``, default ``runs/perception/TASK``), exports CKPT.
+  resumes (run state in ``--run-dir``, default ``runs/perception/TASK``), exports CKPT. ``--stop-at K``
+  stops at step K of the ``--steps`` schedule; a rerun with another ``--side`` resumes at that side.
 - ``evaluate --checkpoint CKPT --frames DIR [--json FILE]``: prints and writes the metrics.
 """
 
@@ -45,10 +46,18 @@ def _parser() -> argparse.ArgumentParser:
         "--run-dir", type=Path, default=None, help="resumable state (default runs/perception/TASK)"
     )
     fit.add_argument("--side", type=int, default=128, help="network input side, pixels")
+    fit.add_argument("--crop", type=int, default=None, help="train on random crops of this side")
     fit.add_argument("--widths", type=str, default="16,32,64,96,128", help="U-Net channels per level")
     fit.add_argument("--bin-m", type=float, default=0.1, help="depth bin width, metres")
     fit.add_argument("--bins", type=int, default=50, help="number of depth bins")
-    fit.add_argument("--steps", type=int, default=3000)
+    fit.add_argument("--steps", type=int, default=3000, help="length of the learning-rate schedule")
+    fit.add_argument(
+        "--stop-at", type=int, default=None, help="stop and export at this step (rerun to continue)"
+    )
+    fit.add_argument("--depth-target", choices=("one_hot", "two_hot"), default="one_hot")
+    fit.add_argument(
+        "--depth-l1", type=float, default=0.0, help="weight of the expected depth's relative L1 loss"
+    )
     fit.add_argument("--batch", type=int, default=12)
     fit.add_argument("--lr", type=float, default=2e-3)
     fit.add_argument("--seed", type=int, default=0)
@@ -82,10 +91,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             run_dir=args.run_dir or Path("runs/perception") / args.task,
             valid_frames=args.valid,
             side=args.side,
+            crop=args.crop,
             widths=tuple(int(w) for w in args.widths.split(",")),
             bin_m=args.bin_m,
             bins=args.bins,
             steps=args.steps,
+            stop_at=args.stop_at,
+            depth_target=args.depth_target,
+            depth_l1_weight=args.depth_l1,
             batch=args.batch,
             lr=args.lr,
             seed=args.seed,

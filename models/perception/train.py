@@ -21,7 +21,7 @@ from tqdm import tqdm
 
 from models.perception.augment import AugmentConfig, augment_example, variable_appearance_classes
 from models.perception.dataset import FrameArrays, load_frames
-from models.perception.depth import DepthBins, depth_loss
+from models.perception.depth import DepthBins, DepthTarget, depth_loss
 from models.perception.evaluate import evaluate_model
 from models.perception.network import (
     CheckpointInfo,
@@ -48,11 +48,13 @@ class TrainConfig:
     run_dir: Path  # resumable run state
     valid_frames: Path | None = None  # evaluated at the end when given
     side: int = 128  # network input side, pixels
+    crop: int | None = None  # train on random crop x crop windows of the side x side frames (None: whole)
     widths: tuple[int, ...] = (16, 32, 64, 96, 128)  # U-Net channels per level
     bin_m: float = 0.1  # depth bin width, metres (HLSM)
     bins: int = 50  # depth bins (HLSM)
     hfov_deg: float = 90.0  # field of view of the frames, degrees (recorded for the agent)
-    steps: int = 3000  # optimiser steps
+    steps: int = 3000  # optimiser steps: the length of the learning-rate schedule
+    stop_at: int | None = None  # stop (save and export) at this step, keeping the schedule of ``steps``
     batch: int = 12  # frames per step
     lr: float = 2e-3  # peak learning rate
     weight_decay: float = 1e-4
@@ -63,6 +65,8 @@ class TrainConfig:
     limit: int | None = None  # use only the first frames (quick runs)
     valid_limit: int | None = None
     eval_side: int = 256  # side at which validation metrics are computed
+    depth_target: DepthTarget = "one_hot"  # "one_hot": HLSM's bin of the true depth; "two_hot": see depth.py
+    depth_l1_weight: float = 0.0  # weight of the relative L1 of the expected depth (0: cross entropy only)
     augment: AugmentConfig = field(default_factory=AugmentConfig)
 
     def network(self, classes: tuple[str, ...]) -> PerceptionNetConfig:
@@ -92,13 +96,24 @@ def make_batch(
     varies: np.ndarray,
     rng: np.random.Generator,
     augment: AugmentConfig,
+    crop: int | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Augmented (rgb [B, 3, S, S] in [0, 1], depth [B, S, S] metres, labels int64 [B, S, S])."""
+    """Augmented (rgb [B, 3, S, S] in [0, 1], depth [B, S, S] metres, labels int64 [B, S, S]); with
+    ``crop`` each example is a random crop x crop window (S = crop), objects keeping their size in pixels
+    (a quarter of the pixels per example at half the side: cheap steps that still see whole small objects).
+    """
     rgbs, depths, labels = [], [], []
+    side = frames.rgb.shape[1]
+    if crop is not None and not 0 < crop <= side:
+        raise ValueError(f"crop must lie in 1..{side} (the frames' side), got {crop}")
     for i in indices:
-        rgb = frames.rgb[i].astype(np.float32) * np.float32(1 / 255)
-        depth = frames.depth_mm[i].astype(np.float32) * np.float32(0.001)
-        rgb, depth, label = augment_example(rgb, depth, frames.labels[i], varies, rng, augment)
+        window = slice(None), slice(None)
+        if crop is not None:
+            y0, x0 = (int(v) for v in rng.integers(0, side - crop + 1, size=2))
+            window = slice(y0, y0 + crop), slice(x0, x0 + crop)
+        rgb = frames.rgb[i][window].astype(np.float32) * np.float32(1 / 255)
+        depth = frames.depth_mm[i][window].astype(np.float32) * np.float32(0.001)
+        rgb, depth, label = augment_example(rgb, depth, frames.labels[i][window], varies, rng, augment)
         rgbs.append(rgb)
         depths.append(depth)
         labels.append(label)
@@ -107,7 +122,12 @@ def make_batch(
 
 
 def _save_state(
-    path: Path, model: PerceptionNet, optimizer: torch.optim.Optimizer, step: int, rng: Any
+    path: Path,
+    model: PerceptionNet,
+    optimizer: torch.optim.Optimizer,
+    step: int,
+    rng: Any,
+    stages: list[dict[str, Any]],
 ) -> None:
     """Atomic write, so a run killed mid-save still resumes from the previous state."""
     tmp = path.with_suffix(".tmp")
@@ -117,23 +137,52 @@ def _save_state(
         "step": step,
         "numpy_rng": rng.bit_generator.state,
         "torch_rng": torch.get_rng_state(),
+        "stages": stages,
     }
     torch.save(state, tmp)
     os.replace(tmp, path)
 
 
+def _record_stage(stages: list[dict[str, Any]], config: TrainConfig, step: int) -> None:
+    """Extend the last stage or open a new one when the side, batch or lr changed (progressive resizing:
+    a run may start at a small side and resume at a larger one, the U-Net being fully convolutional)."""
+    key = {
+        "side": config.side,
+        "crop": config.crop,
+        "batch": config.batch,
+        "lr": config.lr,
+        "schedule_steps": config.steps,
+    }
+    if stages and {k: stages[-1].get(k) for k in key} == key and stages[-1]["to_step"] <= step:
+        stages[-1]["to_step"] = step
+    elif not stages or stages[-1]["to_step"] < step:
+        start = stages[-1]["to_step"] if stages else 0
+        stages.append({**key, "from_step": start, "to_step": step})
+
+
 def train(config: TrainConfig) -> Path:
-    """Run (or resume) training and export the checkpoint; returns the checkpoint directory."""
+    """Run (or resume) training and export the checkpoint; returns the checkpoint directory.
+
+    ``config.stop_at`` stops early on the schedule of ``config.steps``; running again (with the same or a
+    larger ``stop_at``, or none) continues. The run state is side-independent, so a run may resume at
+    another ``side``; the stages are recorded in the checkpoint's run config.
+    """
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
     frames = load_frames(config.frames, config.side, limit=config.limit)
     net_config = config.network(frames.classes)
+    divisor = net_config.unet.divisor
+    if config.crop is not None and (config.crop % divisor or config.crop < 2 * divisor):
+        raise ValueError(
+            f"crop must be a multiple of {divisor} and at least {2 * divisor}, got {config.crop}"
+        )
     model = PerceptionNet(net_config)
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     config.run_dir.mkdir(parents=True, exist_ok=True)
     state_path = config.run_dir / STATE_FILE
     start = 0
+    stages: list[dict[str, Any]] = []
     if state_path.is_file():
         state = torch.load(state_path, map_location="cpu", weights_only=False)  # our own run file
         model.load_state_dict(state["model"])
@@ -141,24 +190,26 @@ def train(config: TrainConfig) -> Path:
         start = int(state["step"])
         rng.bit_generator.state = state["numpy_rng"]
         torch.set_rng_state(state["torch_rng"])
+        stages = list(state.get("stages", [{"side": None, "from_step": 0, "to_step": start}]))
+    end = config.steps if config.stop_at is None else min(config.stop_at, config.steps)
     varies = variable_appearance_classes(frames.classes, load_ontology())
     weights = None
     if config.task == "segmentation":
         weights = torch.from_numpy(class_weights(frames.labels, len(frames.classes)))
     model.train()
     progress = tqdm(
-        range(start, config.steps), initial=start, total=config.steps, desc=f"train {config.task}"
+        range(start, end), initial=start, total=end, desc=f"train {config.task} at {config.side}px"
     )
     running = None
     for step in progress:
         for group in optimizer.param_groups:
             group["lr"] = learning_rate(config, step)
         indices = rng.integers(len(frames), size=config.batch)
-        rgb, depth, labels = make_batch(frames, indices, varies, rng, config.augment)
+        rgb, depth, labels = make_batch(frames, indices, varies, rng, config.augment, config.crop)
         logits = model.forward_float(rgb)
         if config.task == "depth":
             assert net_config.bins is not None
-            loss = depth_loss(logits, depth, net_config.bins)
+            loss = depth_loss(logits, depth, net_config.bins, config.depth_target, config.depth_l1_weight)
         else:
             loss = segmentation_loss(logits, labels, weights)
         optimizer.zero_grad(set_to_none=True)
@@ -167,12 +218,13 @@ def train(config: TrainConfig) -> Path:
         value = float(loss.detach())
         running = value if running is None else 0.98 * running + 0.02 * value
         progress.set_postfix(loss=f"{running:.3f}")
-        if (step + 1) % config.save_every == 0 or step + 1 == config.steps:
-            _save_state(state_path, model, optimizer, step + 1, rng)
+        if (step + 1) % config.save_every == 0 or step + 1 == end:
+            _record_stage(stages, config, step + 1)
+            _save_state(state_path, model, optimizer, step + 1, rng, stages)
     model.eval()
     info = CheckpointInfo(
-        step=config.steps,
-        run=config.run_record(),
+        step=max(end, start),
+        run={**config.run_record(), "stages": stages},
         data={
             "frames": str(config.frames),
             "count": len(frames),

@@ -149,3 +149,33 @@ def test_segmentation_iou_from_a_hand_made_confusion():
     assert metrics.miou == pytest.approx(1 / 3)
     assert metrics.task_miou == pytest.approx(0.25)
     assert metrics.pixel_accuracy == pytest.approx(3 / 5)
+
+
+def test_two_hot_target_splits_between_neighbouring_bins_and_is_least_at_the_true_expectation():
+    bins = DepthBins(0.1, 5)
+    depth = torch.full((1, 1, 1), 0.23)  # 30% of the way from bin 2 (0.2 m) to bin 3 (0.3 m)
+
+    def loss_of(probs: list[float], target: str) -> float:
+        logits = torch.tensor(probs).log().view(1, 5, 1, 1)
+        return float(depth_loss(logits, depth, bins, target))  # type: ignore[arg-type]
+
+    exact = [1e-6, 1e-6, 0.7, 0.3, 1e-6]
+    snapped = [1e-6, 1e-6, 1.0 - 2e-6, 1e-6, 1e-6]
+    assert loss_of(exact, "two_hot") < loss_of(snapped, "two_hot")
+    assert loss_of(snapped, "one_hot") < loss_of(exact, "one_hot")
+    assert loss_of(exact, "two_hot") == pytest.approx(-(0.7 * np.log(0.7) + 0.3 * np.log(0.3)), abs=1e-4)
+    with pytest.raises(ValueError, match="target"):
+        loss_of(exact, "three_hot")
+
+
+def test_relative_l1_term_is_zero_when_the_expectation_is_right():
+    bins = DepthBins(0.1, 5)
+    depth = torch.full((1, 1, 1), 0.25)
+    logits = torch.tensor([1e-6, 1e-6, 0.5, 0.5, 1e-6]).log().view(1, 5, 1, 1)
+    plain = float(depth_loss(logits, depth, bins, "two_hot", 0.0))
+    assert float(depth_loss(logits, depth, bins, "two_hot", 5.0)) == pytest.approx(plain, abs=1e-4)
+    wrong = torch.tensor([0.5, 0.5, 1e-6, 1e-6, 1e-6]).log().view(1, 5, 1, 1)  # expects 0.05 m
+    gap = float(depth_loss(wrong, depth, bins, "two_hot", 1.0)) - float(
+        depth_loss(wrong, depth, bins, "two_hot", 0.0)
+    )
+    assert gap == pytest.approx(0.8, abs=1e-3)  # |0.05 - 0.25| / 0.25

@@ -101,6 +101,25 @@ def test_a_second_run_resumes_from_the_saved_state(frames_dir: Path, tmp_path: P
     assert torch.all(resumed.unet.head.bias == 7.0)
 
 
+def test_stop_at_pauses_a_schedule_that_resumes_at_another_side_on_crops(frames_dir: Path, tmp_path: Path):
+    def config(side: int, crop: int | None = None, stop_at: int | None = None) -> TrainConfig:
+        return TrainConfig(
+            task="segmentation", frames=frames_dir, out=tmp_path / "ckpt", run_dir=tmp_path / "run",
+            side=side, crop=crop, widths=TINY, steps=4, stop_at=stop_at, batch=2, save_every=1, threads=1,
+        )  # fmt: skip
+
+    train(config(64, stop_at=2))
+    network, info = read_info(tmp_path / "ckpt")
+    assert info.step == 2 and network.input_side == 64
+    train(config(128, crop=64))  # progressive resizing: the rest of the schedule on crops of larger frames
+    network, info = read_info(tmp_path / "ckpt")
+    assert info.step == 4 and network.input_side == 128
+    stages = [(s["side"], s["crop"], s["from_step"], s["to_step"]) for s in info.run["stages"]]
+    assert stages == [(64, None, 0, 2), (128, 64, 2, 4)]
+    with pytest.raises(ValueError, match="crop must be a multiple of 32"):
+        train(config(128, crop=48))
+
+
 def _harness_frame() -> Frame:
     world = generate_world(WorldGenConfig("kitchen", 1_000_003))
     frame = Renderer(CameraSpec(80, 60, 90.0)).render(world, noise_seed=1)
