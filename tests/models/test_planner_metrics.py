@@ -101,3 +101,11 @@ def test_reports_group_by_task_type_and_count_validation_notes() -> None:
     assert report.per_task_type["Coffee"].exact_match == 0.5
     assert report.per_task_type["Boil X"].recall == 0.5
     assert report.as_json()["per_task_type"].keys() == {"Boil X", "Coffee"}
+
+
+def test_navigate_ignored_match_compares_the_interactions_in_order() -> None:
+    walked = plan("Navigate Drawer, Open Drawer, Navigate Knife, Pickup Knife, Close Drawer")
+    stood = plan("Open Drawer, Pickup Knife, Close Drawer")
+    swapped = plan("Open Drawer, Close Drawer, Pickup Knife")
+    scores = score_plans([stood, swapped], [walked, walked])
+    assert (scores.exact_match, scores.exact_match_interactions) == (0.0, 0.5)
