@@ -31,6 +31,11 @@ PROCESSING_PLACES: frozenset[str] = frozenset(
 )
 """Receptacles that change what goes in (rinse, heat, toast, cook, fill): going back in repeats that."""
 
+ON_RECEPTACLE_M = 0.2
+"""Metres from an object's point to a receptacle's nearest map cell for it to lie on that receptacle (the
+object hides the top beneath it from the map: a book on a coffee table is 0.1-0.2 m from its mapped cells)."""
+WORK_SURFACES: frozenset[str] = frozenset({"CounterTop"})
+"""Where plans set things down to work on them: an X already there is no worse an X to move there."""
 WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "Bathtub"})
 """Where a plan puts a dish down to wash it under the running tap."""
 
@@ -81,9 +86,16 @@ class InstanceChoice(StepContext):
         """An instance that looks the opposite of what the plan needs (a dirty bowl to serve slices in): it
         will do only once a short look around found no better one (``Attempt.accept_second``). Not applied
         inside a container the plan opened for X: the plan says which one, and warm light inside a
-        microwave fools the stain cue. Only a clean one is ever required: a plan that puts a dish into the
-        sink may wash it or only fill it with water."""
-        return self._wanted_look(obj) == "clean" and self._looks_at(obj, x, z) == "dirty"
+        microwave fools the stain cue. Both ways: a clean plate rinsed where the plan washes one ("Clean all
+        the Plates") leaves the dirty one dirty (``_wanted_look`` says "dirty" only for a wash, not a fill).
+        And an X that already lies where the plan carries it (``_lies_at_destination``), unless that is a
+        counter: "Pickup Apple, Place CounterTop" mostly moves the apple to work on it, and any apple will
+        do there (``_rank`` still prefers one not on a counter yet)."""
+        if self._lies_at_destination(obj, x, z) not in (None, *WORK_SURFACES):
+            return True
+        wanted = self._wanted_look(obj)
+        seen = self._looks_at(obj, x, z)
+        return wanted is not None and seen != "unknown" and seen != wanted
 
     def _second_rate_known(self, obj: str, attempt: Attempt) -> bool:
         """Whether a second-rate instance is in view or mapped (one to fall back on)."""
@@ -151,7 +163,7 @@ class InstanceChoice(StepContext):
             x, z, instance_id = where.point[0], where.point[2], where.instance_id
         else:
             x, z = where.x, where.z
-        finished = self._finished(obj, x, z, instance_id)
+        finished = self._finished(obj, x, z, instance_id) or self._lies_at_destination(obj, x, z) is not None
         anchor = self._anchor(obj)
         if anchor is None:
             return finished, self._look_mismatch(obj, x, z), distance
@@ -161,10 +173,24 @@ class InstanceChoice(StepContext):
             closeness = math.hypot(x - anchor[0], z - anchor[1])
         return finished, 0.0, closeness
 
+    def _lies_at_destination(self, obj: str, x: float, z: float) -> str | None:
+        """The receptacle type the plan takes X up to put it on, when this X already lies on one ("Pickup
+        Book, Place CoffeeTable" means a book not yet on the coffee table); else None. Not for processing
+        places: a mug already in the sink is still to be washed there."""
+        upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
+        if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
+            return None
+        destination = next((s for s in upcoming[1:] if s.action in (A.PICKUP, A.PLACE)), None)
+        if destination is None or destination.action is not A.PLACE or destination.obj in PROCESSING_PLACES:
+            return None
+        under = self.view.clusters(destination.obj)
+        return destination.obj if any(c.distance_to(x, z) <= ON_RECEPTACLE_M for c in under) else None
+
     def _wanted_look(self, obj: str) -> Looks | None:
-        """ "dirty" when the plan takes X up to wash it (its next Place is into a sink), "clean" when it
-        takes X up for anything else or puts something into X (a plate to serve on); None for types that
-        never get dirty or no Pickup of, or Place into, X ahead."""
+        """ "dirty" when the plan takes X up to wash it (its next Place is into a sink, and X is not taken
+        back up to pour: that fills it, and any X fills), "clean" when it takes X up for anything else or
+        puts something into X (a plate to serve on); None for types that never get dirty, a fill, or no
+        Pickup of, or Place into, X ahead."""
         if not self.onto.get(obj).dirtyable:
             return None
         index = self.pointer
@@ -178,8 +204,20 @@ class InstanceChoice(StepContext):
             if later.action is A.PICKUP:
                 break
             if later.action is A.PLACE:
-                return "dirty" if later.obj in WASH_BASINS else "clean"
+                if later.obj not in WASH_BASINS:
+                    return "clean"
+                return None if self._fills(obj, index) else "dirty"
         return "clean"
+
+    def _fills(self, obj: str, index: int) -> bool:
+        """Whether the X the plan puts into a sink after ``plan[index]`` is taken back up and poured out
+        before another type is taken up (filling it with water, not washing it)."""
+        for later in self.plan[index + 1 :]:
+            if later.action is A.POUR:
+                return True
+            if later.action is A.PICKUP and later.obj != obj:
+                return False
+        return False
 
     def _look_mismatch(self, obj: str, x: float, z: float) -> float:
         """0 when the instance looks as the plan needs, 1 when it looks the opposite, 0.5 when unknown."""

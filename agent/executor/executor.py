@@ -315,6 +315,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
                 memory.placed_into.pop(obj, None)
                 attempt.any_instance = True
                 self.events.append(f"{subgoal}: another {obj} than the one put down at ({x:.2f}, {z:.2f})")
+            elif subgoal.action is A.NAVIGATE and placed:
+                self._pin_put_down(obj)
             if subgoal.action is A.PICKUP and self._just_put_down(obj) and self._means_another(obj):
                 attempt.any_instance = True  # "Place Bowl, Pickup LettuceSliced": the next slice
                 memory.placed_into.pop(obj, None)
@@ -360,6 +362,17 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self.state.attempt = None
         self.pointer += 1
         self.events.append(f"done {subgoal}: {reason}")
+
+    def _pin_put_down(self, obj: str) -> None:
+        """A Navigate back to the X the agent put down ("Place SinkBasin, ToggleOn Faucet, ToggleOff Faucet,
+        Navigate Mug, Pickup Mug": the mug just filled) makes the belief forget that X was placed, as for
+        another X; when ``_means_another`` says it is the same one, the Pickup after is pinned to it, so
+        the dry mug beside the sink is not taken instead."""
+        upcoming = [s for s in self.plan[self.pointer + 1 :] if s.action is not A.NAVIGATE]
+        instance_id = self.state.memory.instance.get(obj)
+        if instance_id is None or not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
+            return
+        self.state.memory.pins.insert(0, (A.PICKUP.value, obj, instance_id))
 
     def _give_up(self, subgoal: Subgoal, outcome: GiveUp) -> None:
         """A failed subgoal goes back to repair: drop it, repair the rest from the current belief."""

@@ -15,6 +15,7 @@ from app.settings import Settings
 from harness.camera import CameraSpec
 from harness.commander.tools import CommanderTools
 from harness.physics import resting_center
+from harness.runner import DEFAULT_CAMERA, generated_episode
 from harness.world import World, WorldObject
 from harness.worldgen import generate_kitchen
 from symbolic.commands import ClickHint, CommandItem, StandHint, format_command
@@ -232,3 +233,58 @@ def test_a_tatc_follower_stands_and_clicks_where_the_commander_says(client: Test
     pickup = next(i for i, r in enumerate(reasons) if r.startswith("Hint: Pickup"))
     assert all(r.startswith("Hint:") for r in reasons[:pickup]), reasons  # no searching of its own
     assert run.failed() == 0
+
+
+def test_the_plate_washed_is_the_dirty_one_not_a_clean_one_nearer(client: TestClient) -> None:
+    """ "Clean all the Plates": rinsing the clean plate at hand would leave the dirty one dirty, so a plate
+    that looks clean is passed over while a look around may find a stained one."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Plate", 2),))
+    clean, dirty = world.of_type("Plate")[:2]
+    here = (world.agent.x, 0.9, world.agent.z)
+    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
+    _put(world, clean, counters[0])
+    _put(world, dirty, counters[-1])
+    clean.is_dirty, dirty.is_dirty = False, True
+
+    plan = (
+        "Navigate Plate, Pickup Plate, Navigate SinkBasin, Place SinkBasin, ToggleOn Faucet, ToggleOff Faucet"
+    )
+    run = drive(client, world, plan, max_steps=400)
+
+    assert run.last["done"], run.last
+    assert not run.sim.world.objects[dirty.object_id].is_dirty, "the stained plate was not the one washed"
+
+
+def test_the_mug_filled_at_the_sink_is_the_one_poured_on_the_plant(client: TestClient) -> None:
+    """ "Place SinkBasin, ToggleOn Faucet, ToggleOff Faucet, Navigate Mug, Pickup Mug": the mug meant is the
+    one just filled in the sink, not the dry one standing nearer by it (generated valid_unseen Water Plant
+    game 48, where the agent once poured from the dry mug)."""
+    episode = generated_episode("valid_unseen", 48, DEFAULT_CAMERA)
+    assert episode.task.describe() == "Water the plant."
+    plan = ", ".join(str(s) for s in episode.future_subgoals)
+
+    run = drive(client, episode.world, plan, max_steps=300)
+
+    assert run.last["done"], run.last
+    assert episode.check(run.sim.world).success, episode.check(run.sim.world).unsatisfied
+
+
+def test_an_apple_already_on_the_plate_is_not_the_one_carried_there(client: TestClient) -> None:
+    """ "Put all Apples on a Plate": the apple to carry is one not on the plate yet, even when the one on
+    it is nearer."""
+    world = generate_kitchen(KITCHEN_SEED, require=(("Apple", 2), ("Plate", 1)))
+    here = (world.agent.x, 0.9, world.agent.z)
+    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
+    plate = world.of_type("Plate")[0]
+    on_plate, elsewhere = world.of_type("Apple")[:2]
+    _put_near(world, plate, "CounterTop", counters[0])
+    _put(world, on_plate, plate)
+    _put_near(world, elsewhere, "CounterTop", counters[-1])
+
+    run = drive(client, world, "Navigate Apple, Pickup Apple, Navigate Plate, Place Plate", max_steps=400)
+
+    assert run.last["done"], run.last
+    after = run.sim.world.objects
+    assert after[on_plate.object_id].parent_id == plate.object_id
+    carried_to = after[elsewhere.object_id].parent_id
+    assert carried_to is not None and after[carried_to].object_type == "Plate", carried_to
