@@ -96,6 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     levels: dict[str, Any] = {}
+    commit = _commit()  # the code the service starts with (later commits do not reach a running service)
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         for level in args.levels:
@@ -122,7 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "met": levels["full"]["sr"] >= SR_BAR if "full" in levels else None,
         },
         "obedient_follower": None if args.no_obedient else obedient(args.n),
-        "commit": _commit(),
+        "commit": commit,
         "machine": platform.platform(),
         "wall_s": round(time.perf_counter() - started, 1),
     }
