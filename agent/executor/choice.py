@@ -34,8 +34,14 @@ PROCESSING_PLACES: frozenset[str] = frozenset(
 ON_RECEPTACLE_M = 0.2
 """Metres from an object's point to a receptacle's nearest map cell for it to lie on that receptacle (the
 object hides the top beneath it from the map: a book on a coffee table is 0.1-0.2 m from its mapped cells)."""
+ON_TOP_SLACK_M = 0.05
+"""Metres an object's height may fall short of the lower edge of a receptacle's top bin, still on it."""
+IN_DISH_M = 0.06
+"""The same for a dish or pot: a potato or a slice beside a pot or plate is not in it."""
 WORK_SURFACES: frozenset[str] = frozenset({"CounterTop"})
 """Where plans set things down to work on them: an X already there is no worse an X to move there."""
+RESTING_PLACES: frozenset[str] = frozenset({"CounterTop", "DiningTable", "SideTable", "Shelf", "Cabinet"})
+"""Where a washed dish is set down when washing was the point (not a stove, a coffee machine, a plant)."""
 WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "Bathtub"})
 """Where a plan puts a dish down to wash it under the running tap."""
 
@@ -82,7 +88,7 @@ class InstanceChoice(StepContext):
         where = destination.obj
         return where == went[-1] or (where in went and where in PROCESSING_PLACES)
 
-    def _second_rate(self, obj: str, x: float, z: float) -> bool:
+    def _second_rate(self, obj: str, x: float, z: float, y: float) -> bool:
         """An instance that looks the opposite of what the plan needs (a dirty bowl to serve slices in): it
         will do only once a short look around found no better one (``Attempt.accept_second``). Not applied
         inside a container the plan opened for X: the plan says which one, and warm light inside a
@@ -91,7 +97,7 @@ class InstanceChoice(StepContext):
         And an X that already lies where the plan carries it (``_lies_at_destination``), unless that is a
         counter: "Pickup Apple, Place CounterTop" mostly moves the apple to work on it, and any apple will
         do there (``_rank`` still prefers one not on a counter yet)."""
-        if self._lies_at_destination(obj, x, z) not in (None, *WORK_SURFACES):
+        if self._lies_at_destination(obj, x, z, y) not in (None, *WORK_SURFACES):
             return True
         wanted = self._wanted_look(obj)
         seen = self._looks_at(obj, x, z)
@@ -99,8 +105,8 @@ class InstanceChoice(StepContext):
 
     def _second_rate_known(self, obj: str, attempt: Attempt) -> bool:
         """Whether a second-rate instance is in view or mapped (one to fall back on)."""
-        visible = any(self._second_rate(obj, v.point[0], v.point[2]) for v in self.view.clickable(obj))
-        return visible or any(self._second_rate(obj, c.x, c.z) for c in self.view.clusters(obj))
+        visible = any(self._second_rate(obj, *_xzy(v.point)) for v in self.view.clickable(obj))
+        return visible or any(self._second_rate(obj, c.x, c.z, c.top_m) for c in self.view.clusters(obj))
 
     def _hint_box(self, obj: str, attempt: Attempt) -> Box | None:
         """The box of the container the plan just opened for X ("Open Fridge, Navigate Bowl, Pickup Bowl"),
@@ -161,9 +167,12 @@ class InstanceChoice(StepContext):
         instance_id = None
         if isinstance(where, VisibleInstance):
             x, z, instance_id = where.point[0], where.point[2], where.instance_id
+            y = where.point[1]
         else:
-            x, z = where.x, where.z
-        finished = self._finished(obj, x, z, instance_id) or self._lies_at_destination(obj, x, z) is not None
+            x, z, y = where.x, where.z, where.top_m
+        finished = (
+            self._finished(obj, x, z, instance_id) or self._lies_at_destination(obj, x, z, y) is not None
+        )
         anchor = self._anchor(obj)
         if anchor is None:
             return finished, self._look_mismatch(obj, x, z), distance
@@ -173,10 +182,11 @@ class InstanceChoice(StepContext):
             closeness = math.hypot(x - anchor[0], z - anchor[1])
         return finished, 0.0, closeness
 
-    def _lies_at_destination(self, obj: str, x: float, z: float) -> str | None:
+    def _lies_at_destination(self, obj: str, x: float, z: float, y: float) -> str | None:
         """The receptacle type the plan takes X up to put it on, when this X already lies on one ("Pickup
         Book, Place CoffeeTable" means a book not yet on the coffee table); else None. Not for processing
-        places: a mug already in the sink is still to be washed there."""
+        places: a mug already in the sink is still to be washed there. ``y`` (metres) must not lie below
+        the receptacle's top: a bowl in the cabinet under a counter is not on the counter."""
         upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
         if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
             return None
@@ -184,7 +194,9 @@ class InstanceChoice(StepContext):
         if destination is None or destination.action is not A.PLACE or destination.obj in PROCESSING_PLACES:
             return None
         under = self.view.clusters(destination.obj)
-        return destination.obj if any(c.distance_to(x, z) <= ON_RECEPTACLE_M for c in under) else None
+        within = ON_RECEPTACLE_M if not self.onto.get(destination.obj).pickupable else IN_DISH_M
+        on = any(c.distance_to(x, z) <= within and y >= c.top_low_m - ON_TOP_SLACK_M for c in under)
+        return destination.obj if on else None
 
     def _wanted_look(self, obj: str) -> Looks | None:
         """ "dirty" when the plan takes X up to wash it (its next Place is into a sink, and X is not taken
@@ -206,18 +218,23 @@ class InstanceChoice(StepContext):
             if later.action is A.PLACE:
                 if later.obj not in WASH_BASINS:
                     return "clean"
-                return None if self._fills(obj, index) else "dirty"
+                return "dirty" if self._only_washed(obj, index) else None
         return "clean"
 
-    def _fills(self, obj: str, index: int) -> bool:
-        """Whether the X the plan puts into a sink after ``plan[index]`` is taken back up and poured out
-        before another type is taken up (filling it with water, not washing it)."""
-        for later in self.plan[index + 1 :]:
-            if later.action is A.POUR:
-                return True
-            if later.action is A.PICKUP and later.obj != obj:
-                return False
-        return False
+    def _only_washed(self, obj: str, index: int) -> bool:
+        """Whether washing is all the plan does with the X it puts into a sink after ``plan[index]``: it is
+        left there, or taken back up only to be set down on a counter or table ("Clean all the Plates").
+        A pot filled to boil, a mug filled to pour or to make coffee in is used after, and any X will do."""
+        later = [s for s in self.plan[index + 1 :] if s.action is not A.NAVIGATE]
+        back = next((i for i, s in enumerate(later) if s == Subgoal(A.PICKUP, obj)), None)
+        if any(s.action is A.POUR for s in later[: back if back is not None else len(later)]):
+            return False
+        if back is None:
+            return True
+        after = next((s for s in later[back + 1 :] if s.action is not A.NAVIGATE), None)
+        if after is None:
+            return True
+        return after.action is A.PLACE and after.obj in RESTING_PLACES
 
     def _look_mismatch(self, obj: str, x: float, z: float) -> float:
         """0 when the instance looks as the plan needs, 1 when it looks the opposite, 0.5 when unknown."""
@@ -275,7 +292,7 @@ class InstanceChoice(StepContext):
         if box is not None:
             candidates = [v for v in candidates if in_box(v.point, box)]
         elif not attempt.accept_second:
-            candidates = [v for v in candidates if not self._second_rate(obj, v.point[0], v.point[2])]
+            candidates = [v for v in candidates if not self._second_rate(obj, *_xzy(v.point))]
         remembered = attempt.pinned if attempt.pinned is not None else self._remembered(obj, attempt)
         if remembered is not None:
             return next((v for v in candidates if v.instance_id == remembered), None)
@@ -350,7 +367,8 @@ class InstanceChoice(StepContext):
                 continue
             if self._switched((cluster.x, 0.0, cluster.z), attempt.switched):
                 continue
-            if box is None and not attempt.accept_second and self._second_rate(obj, cluster.x, cluster.z):
+            second = self._second_rate(obj, cluster.x, cluster.z, cluster.top_m)
+            if box is None and not attempt.accept_second and second:
                 continue
             on = self.state.memory.switched_on.get(obj, [])
             point = (cluster.x, 0.0, cluster.z)
@@ -358,3 +376,8 @@ class InstanceChoice(StepContext):
                 continue
             clusters.append(cluster)
         return sorted(clusters, key=lambda c: self._rank(obj, c, c.nearest_m))
+
+
+def _xzy(point: Point) -> tuple[float, float, float]:
+    """A world point's (x, z, y): where on the floor plan, then how high."""
+    return point[0], point[2], point[1]

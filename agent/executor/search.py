@@ -256,7 +256,9 @@ class ContainerSearch(Approach):
         if box is not None:
             clickable = [v for v in clickable if in_box(v.point, box)]
         elif not attempt.accept_second:
-            clickable = [v for v in clickable if not self._second_rate(obj, v.point[0], v.point[2])]
+            clickable = [
+                v for v in clickable if not self._second_rate(obj, v.point[0], v.point[2], v.point[1])
+            ]
         return bool(clickable or self._clusters(obj, attempt))
 
     def _take_hint(self, obj: str, search: SearchState) -> None:
