@@ -199,10 +199,10 @@ class InstanceChoice(StepContext):
         return destination.obj if on else None
 
     def _wanted_look(self, obj: str) -> Looks | None:
-        """ "dirty" when the plan takes X up to wash it (its next Place is into a sink, and X is not taken
-        back up to pour: that fills it, and any X fills), "clean" when it takes X up for anything else or
-        puts something into X (a plate to serve on); None for types that never get dirty, a fill, or no
-        Pickup of, or Place into, X ahead."""
+        """ "dirty" when the plan takes X up only to wash it (its next Place is into a sink and nothing
+        uses it after, ``_only_washed``), "clean" when it takes X up for anything else or puts something
+        into X (a plate to serve on); None for types that never get dirty, an X filled at the sink to be
+        used (boiled in, poured from), or no Pickup of, or Place into, X ahead."""
         if not self.onto.get(obj).dirtyable:
             return None
         index = self.pointer
