@@ -31,6 +31,9 @@ A = SubgoalAction
 OPENED_PART_M = 0.6
 """Metres around the click of an Open that belong to the container opened (one fridge, one cabinet door)."""
 
+CONTAINER_DEPTH_M = 0.8
+"""Metres a container reaches behind the face seen when clicking it (AI2-THOR's fridges are 0.7-0.8 m deep):
+a closed fridge shows only its door, and the bread inside lies behind it."""
 SAME_DOOR_M = 0.2
 """Metres: an opened instance seen this close to a container part's centre is that part (farther, it is the
 neighbouring cabinet of the row, and this one still needs opening)."""
@@ -531,6 +534,11 @@ class ContainerSearch(Approach):
             return None
         low = [min(b[0][k] for b in boxes) for k in range(3)]
         high = [max(b[1][k] for b in boxes) for k in range(3)]
+        for k, here in ((0, self.pose.x), (2, self.pose.z)):  # the inside lies behind the face seen
+            if here < low[k]:
+                high[k] = max(high[k], low[k] + CONTAINER_DEPTH_M)
+            elif here > high[k]:
+                low[k] = min(low[k], high[k] - CONTAINER_DEPTH_M)
         return (low[0], low[1], low[2]), (high[0], high[1], high[2])
 
     def _visited_box(self, visit: ContainerVisit) -> Box:

@@ -288,3 +288,17 @@ def test_an_apple_already_on_the_plate_is_not_the_one_carried_there(client: Test
     assert after[on_plate.object_id].parent_id == plate.object_id
     carried_to = after[elsewhere.object_id].parent_id
     assert carried_to is not None and after[carried_to].object_type == "Plate", carried_to
+
+
+def test_the_potato_behind_a_fridge_door_seen_edge_on_is_found_inside(client: TestClient) -> None:
+    """ "Open Fridge, Navigate Potato, Pickup Potato": the fridge showed only its door when clicked, and the
+    potato inside lies behind that face (generated valid_unseen Boil X game 16, where the agent once took
+    the fridge to be as thin as its door and searched the kitchen instead)."""
+    episode = generated_episode("valid_unseen", 16, DEFAULT_CAMERA)
+    assert episode.task.describe() == "Boil Potato."
+    plan = ", ".join(str(s) for s in episode.future_subgoals)
+
+    run = drive(client, episode.world, plan, max_steps=300)
+
+    assert run.last["done"], run.last
+    assert episode.check(run.sim.world).success, episode.check(run.sim.world).unsatisfied
