@@ -37,7 +37,7 @@ SPLIT = "valid_unseen"
 SR_BAR = 0.70  # the bar on SR with full information
 
 
-def _commit() -> str:
+def current_commit() -> str:
     done = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False
     )
@@ -96,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     levels: dict[str, Any] = {}
-    commit = _commit()  # the code the service starts with (later commits do not reach a running service)
+    commit = current_commit()  # what the service starts with (later commits never reach it)
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         for level in args.levels:
