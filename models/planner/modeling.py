@@ -162,13 +162,19 @@ def save_planner_model(
 ) -> None:
     """Weights as safetensors (fp16 when asked), configs, tokenizer and ``planner_meta.json``.
 
-    The model in memory is left as it was: fp16 weights are written from a converted state dict.
+    The model in memory is left as it was: fp16 weights are written from a converted state dict, one
+    converted tensor per shared storage, so tied weights (BART's shared embeddings and LM head) stay tied
+    and are written once.
     """
     path.mkdir(parents=True, exist_ok=True)
     state = planner.model.state_dict()
     if half_precision:
+        halves: dict[int, torch.Tensor] = {}
         state = {
-            name: tensor.half() if tensor.is_floating_point() else tensor for name, tensor in state.items()
+            name: halves.setdefault(tensor.data_ptr(), tensor.half())
+            if tensor.is_floating_point()
+            else tensor
+            for name, tensor in state.items()
         }
     planner.model.save_pretrained(str(path), state_dict=state)
     planner.tokenizer.save_pretrained(str(path))

@@ -103,6 +103,21 @@ def test_the_final_checkpoint_is_fp16_on_disk_and_generates_valid_plans(
     assert all(subgoal.obj in load_ontology() for subgoal in prediction.subgoals)
 
 
+def test_the_fp16_checkpoint_writes_tied_embeddings_once(dataset: DatasetFiles, tmp_path: Path) -> None:
+    """BART ties its encoder and decoder embeddings and LM head: one tensor on disk, not four copies."""
+    train(tiny_recipe(2), dataset, tmp_path / "run", show_progress=False)
+    on_disk = weights(tmp_path / "run" / "final")
+    embedding_keys = [
+        k for k in on_disk if k.endswith(("embed_tokens.weight", "shared.weight", "lm_head.weight"))
+    ]
+    assert len(embedding_keys) == 1, embedding_keys
+    loaded = load_planner_model(tmp_path / "run" / "final")
+    assert (
+        loaded.model.get_output_embeddings().weight.data_ptr()
+        == loaded.model.get_input_embeddings().weight.data_ptr()
+    )
+
+
 def test_a_second_schedule_starts_from_the_first_runs_weights(dataset: DatasetFiles, tmp_path: Path) -> None:
     train(tiny_recipe(3), dataset, tmp_path / "first", show_progress=False)
     second = train(
