@@ -238,6 +238,16 @@ class Ontology:
         self.get(obj)
         return obj in self._accepts.get(receptacle, frozenset())
 
+    def may_hold(self, receptacle: str, obj: str) -> bool:
+        """Whether ``obj`` may lie in or on ``receptacle`` directly or inside a movable receptacle that it
+        accepts: a potato in a bowl in a cabinet (a Cabinet does not accept a Potato itself)."""
+        if self.accepts(receptacle, obj):
+            return True
+        return any(
+            self.get(middle).pickupable and self.accepts(receptacle, middle)
+            for middle in self.receptacles_for(obj)
+        )
+
     def accepted_by(self, receptacle: str) -> tuple[str, ...]:
         """Every type ``receptacle`` accepts, sorted."""
         self.get(receptacle)

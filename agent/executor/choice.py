@@ -118,7 +118,7 @@ class InstanceChoice(StepContext):
             if earlier.action is A.NAVIGATE:
                 continue
             kind = earlier.obj
-            if earlier.action is A.OPEN and kind in self.onto.enclosing and self.onto.accepts(kind, obj):
+            if earlier.action is A.OPEN and kind in self.onto.enclosing and self.onto.may_hold(kind, obj):
                 return self.state.memory.opened_box.get(kind)
             return None
         return None

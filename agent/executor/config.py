@@ -34,6 +34,8 @@ class SearchConfig:
     surface_part_m: float = 1.0  # metres: open receptacles are looked at in parts this wide
     max_surfaces: int = 12  # open receptacle parts walked to and looked at per subgoal
     max_containers: int = 12  # containers opened per subgoal (a TEACh kitchen has up to 30)
+    max_hinted_containers: int = 36  # ... when the plan opened one of a type for the target: it is in one
+    # of that type, so every cabinet of a kitchen may need opening
     inspect_viewpoints: int = 3  # other standing cells an open container is looked into from
     viewpoint_gap_m: float = 0.5  # metres between viewpoints on a container's front side
     checked_radius_m: float = 0.3  # metres: a container part this close to a checked one is that one

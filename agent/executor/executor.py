@@ -117,6 +117,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
 
     def decide(self) -> Decision:
         self._judge_previous()
+        self._note_containers()
         limit = self._limit_reached()
         if limit is not None:
             return self._stop(limit)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from agent.executor import sightings
 from agent.executor.approach import Approach
 from agent.executor.clicks import Click, pixel_points
 from agent.executor.config import SearchConfig
@@ -41,8 +42,31 @@ FRONT_MIN_NEW_CELLS = 6
 """Map cells an opened door must add before its direction is trusted as the container's front."""
 FRONT_SAME_M = 0.5
 """Metres: a remembered front this close to a container's centroid is that container's."""
-SIDE_DIRECTIONS: tuple[float, ...] = (0.0, 90.0, 180.0, -90.0)
+SIDE_DIRECTIONS: tuple[float, ...] = sightings.DIRECTIONS
 """The four sides of a container, as ``Approach._sides`` names them (degrees; 0 toward +z, 90 toward +x)."""
+
+PART_PENALTY_M = 1.0
+"""Metres added to a map part's distance when ordering the containers to open: a part is a guess at a
+container (it may be a swung door's cells), a sighted instance is one."""
+SIGHTED_PART_M = 0.45
+"""Metres (horizontally) within which a map part belongs to a sighted instance of its type: it is that
+container, opened through the sighting."""
+SIGHTED_BAND_M = 0.5
+"""Metres (vertically) within which a map part and a sighted instance can be one container (a wall cabinet
+is not the base cabinet under it)."""
+
+LOW_FACE_M = 1.0
+"""Metres: a container whose face is seen below this is a base cabinet or a drawer, under a counter top."""
+TALL_STAND_OFF_M = 0.4
+"""Metres (horizontally) from a taller container's face (a fridge, a wall cabinet) to where it is opened
+and looked into from: in front of it rather than beside it, where the swung door hides the shelves."""
+STAND_OFF_M = 0.75
+"""Metres (horizontally) from a low container's face to where it is opened and looked into from. The
+counter top hides what lies inside from a camera at 1.58 m standing closer: a mug 0.38 m behind the face of
+a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight must pass under the top)."""
+FRONT_CONE_DEG = 35.0
+"""Degrees either side of a low container's facing within which it is looked into: from the side, its
+own walls hide the inside."""
 
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
@@ -57,13 +81,15 @@ class ContainerCandidate:
     target: tuple[float, float, float]  # world (x, y, z): the part's centre at its band's middle height
     top_low_m: float  # metres: the lowest the part's top can be
     distance_m: float  # metres from the agent, horizontally
+    instance_id: int | None = None  # the sighted instance (``sightings``); None for a map part
 
 
 def container_types(ontology: Ontology, target_type: str) -> tuple[str, ...]:
-    """Enclosing receptacle types (Fridge, Cabinet, Drawer, Microwave, ...) that accept the target."""
+    """Enclosing receptacle types (Fridge, Cabinet, Drawer, Microwave, ...) that may hold the target,
+    directly or in a bowl or pot inside (``Ontology.may_hold``)."""
     if target_type not in ontology or not ontology.get(target_type).pickupable:
         return ()
-    return tuple(sorted(c for c in ontology.enclosing if ontology.accepts(c, target_type)))
+    return tuple(sorted(c for c in ontology.enclosing if ontology.may_hold(c, target_type)))
 
 
 def searched_box(point: Point, config: SearchConfig) -> Box:
@@ -129,6 +155,49 @@ def container_candidates(
                     distance = math.hypot(point[0] - pose.x, point[2] - pose.z)
                     found.append(ContainerCandidate(object_type, point, top_low, distance))
     return sorted(found, key=lambda c: (c.object_type != prefer, c.distance_m))
+
+
+def sighted_candidates(
+    view: SessionMapView, ontology: Ontology, target_type: str, seen: list[sightings.Sighting]
+) -> list[ContainerCandidate]:
+    """Sighted container instances that may hold the target and were not opened for it yet."""
+    kinds = container_types(ontology, target_type)
+    pose = view.pose
+    return [
+        ContainerCandidate(
+            s.object_type,
+            s.point,
+            s.point[1],
+            math.hypot(s.point[0] - pose.x, s.point[2] - pose.z),
+            s.instance_id,
+        )
+        for s in seen
+        if s.object_type in kinds and target_type not in s.searched_for
+    ]
+
+
+def unsighted(parts: list[ContainerCandidate], seen: list[sightings.Sighting]) -> list[ContainerCandidate]:
+    """The map parts that are no sighted instance's (those are opened, or were, through the sighting)."""
+
+    def sighted(part: ContainerCandidate) -> bool:
+        x, y, z = part.target
+        return any(
+            s.object_type == part.object_type
+            and math.hypot(s.point[0] - x, s.point[2] - z) <= SIGHTED_PART_M
+            and abs(s.point[1] - y) <= SIGHTED_BAND_M
+            for s in seen
+        )
+
+    return [p for p in parts if not sighted(p)]
+
+
+def opening_order(candidates: list[ContainerCandidate], prefer: str | None) -> list[ContainerCandidate]:
+    """The plan's hinted type first, then nearest first, map parts counted ``PART_PENALTY_M`` farther."""
+
+    def key(c: ContainerCandidate) -> tuple[bool, float]:
+        return c.object_type != prefer, c.distance_m + (PART_PENALTY_M if c.instance_id is None else 0.0)
+
+    return sorted(candidates, key=key)
 
 
 def surface_types(ontology: Ontology, target_type: str) -> tuple[str, ...]:
@@ -197,7 +266,9 @@ class ContainerSearch(Approach):
         if search.visit is not None:
             return self._visit_container(obj, attempt)
         checked = self.state.searched.setdefault(obj, [])
-        candidates = container_candidates(self.view, self.onto, obj, checked, cfg, prefer=search.prefer)
+        seen = self.state.containers
+        parts = unsighted(container_candidates(self.view, self.onto, obj, checked, cfg), seen)
+        candidates = opening_order(sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer)
         hinted = [c for c in candidates if c.object_type == search.prefer]
         exploring = not search.exhausted and search.explore_steps < cfg.max_explore_steps
         if exploring and not hinted:
@@ -225,12 +296,16 @@ class ContainerSearch(Approach):
                     f"search({obj}): will look at the {best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
                 )
                 return self._visit_container(obj, attempt)
-        if candidates and search.containers_opened < cfg.max_containers:
+        limit = cfg.max_hinted_containers if hinted else cfg.max_containers
+        if candidates and search.containers_opened < limit:
             best = candidates[0]
-            search.visit = ContainerVisit(best.object_type, best.target, best.top_low_m)
+            search.visit = ContainerVisit(
+                best.object_type, best.target, best.top_low_m, instance_id=best.instance_id
+            )
             x, y, z = best.target
+            what = "sighted " if best.instance_id is not None else ""
             self.events.append(
-                f"search({obj}): will open the {best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
+                f"search({obj}): will open the {what}{best.object_type} at ({x:.2f}, {y:.2f}, {z:.2f})"
             )
             return self._visit_container(obj, attempt)
         taken = self._accept_second(obj, attempt)
@@ -274,7 +349,7 @@ class ContainerSearch(Approach):
             if (
                 earlier.action is not A.OPEN
                 or kind not in self.onto.enclosing
-                or not self.onto.accepts(kind, obj)
+                or not self.onto.may_hold(kind, obj)
             ):
                 return
             search.prefer = kind
@@ -333,6 +408,7 @@ class ContainerSearch(Approach):
         part = replace(self.view.spot_cluster(target, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m)
         body = self._container_body(kind, target)
         goal = self._goal_cells(part, attempt, None, self._front_cells(body) if body is not None else None)
+        goal = self._stand_off(goal, visit, target)
         here = self.view.map.world_to_cell(self.pose.x, self.pose.z)
         standing = bool(goal.any() and goal[here])
         if candidates:
@@ -354,6 +430,7 @@ class ContainerSearch(Approach):
             glance = self._turn_toward(target) or self._pitch_toward(target)
             if glance is not None:
                 return Act(glance, f"search({obj}): look back at the {kind} to close it")
+        why = "no place to stand within reach of it"
         if goal.any():
             nav = self.navigator.next_action(
                 self.view.grids(), self.view.map.frame, self.pose, NavGoal(goal, face=part.cells)
@@ -362,6 +439,7 @@ class ContainerSearch(Approach):
                 return Act(
                     nav.action, f"search({obj}): go to the {kind} to {action.lower()} it", path=nav.path
                 )
+            why = "no way to it" if nav.reason == "unreachable" else "not in view where it should be"
             if nav.reason == "arrived" and visit.looks < 2 * self.cfg.look_sweep:
                 visit.looks += 1  # the navigator faced it; pitch toward it
                 glance = self._pitch_toward(target)
@@ -371,7 +449,42 @@ class ContainerSearch(Approach):
                 unstick = self._unstick(attempt)
                 if unstick is not None:
                     return unstick
-        return self._skip_container(obj, attempt, f"could not {action.lower()} it")
+        return self._skip_container(obj, attempt, f"could not {action.lower()} it: {why}")
+
+    def _stand_off(self, goal: np.ndarray, visit: ContainerVisit, target: Point) -> np.ndarray:
+        """The goal cells in front of a container's face, ``STAND_OFF_M`` or more from a low one and
+        ``TALL_STAND_OFF_M`` from a taller one: in its facing's cone (``_facing``) when there are any, else
+        at that distance in any direction; all of them when none is."""
+        low = target[1] < LOW_FACE_M
+        facing = self._facing(visit.object_type, target, visit.instance_id)
+        ahead = self._front_cone(goal, target, facing, STAND_OFF_M if low else TALL_STAND_OFF_M)
+        if ahead.any():
+            return ahead
+        if not low:
+            return goal
+        far = self._front_cone(goal, target, None, STAND_OFF_M)
+        return far if far.any() else goal
+
+    def _facing(self, kind: str, face: Point, instance_id: int | None) -> float | None:
+        """The axis direction (degrees) a sighted container's face looks toward (``sightings.facing``);
+        None for a container known only from the map."""
+        known = sightings.find(self.state.containers, kind, face, instance_id)
+        return sightings.facing(known) if known is not None else None
+
+    def _front_cone(self, cells: np.ndarray, face: Point, facing: float | None, min_m: float) -> np.ndarray:
+        """The cells ``min_m`` or more from a face point and, when its facing (degrees, 0 toward +z, 90 toward
+        +x) is given, within ``FRONT_CONE_DEG`` of it; kitchens are axis-aligned, so it snaps to an axis."""
+        frame = self.view.map.frame
+        X, Z = cells.shape
+        dx = (frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m - face[0])[:, None]  # [X, 1]
+        dz = (frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m - face[2])[None, :]  # [1, Z]
+        distance = np.hypot(dx, dz)  # [X, Z]
+        kept = cells & (distance >= min_m)
+        if facing is None:
+            return kept
+        axis = math.radians(90.0 * round(facing / 90.0))
+        along = dx * math.sin(axis) + dz * math.cos(axis)
+        return kept & (along >= math.cos(math.radians(FRONT_CONE_DEG)) * distance)
 
     def _look_at_surface(self, obj: str, attempt: Attempt, visit: ContainerVisit) -> Outcome:
         """Walk to an open receptacle's part, face it, and look at it from a few pitches."""
@@ -455,12 +568,25 @@ class ContainerSearch(Approach):
         for x, z in visit.seen_from:
             fresh &= np.hypot(xs[:, None] - x, zs[None, :] - z) > self.cfg.search.viewpoint_gap_m
         goal = np.zeros_like(reachable)
+        known = sightings.find(self.state.containers, kind, inside, visit.instance_id)
+        front = sightings.facing(known) if known is not None else None  # straight in front of it, first
+        front = front if front is not None else self._known_front(body or part)
+        apex = known.point if known is not None else inside  # its face's centre, not the door's edge clicked
+        cone = None
+        if front is not None:
+            low = inside[1] < LOW_FACE_M
+            cone = self._front_cone(reachable & fresh, apex, front, STAND_OFF_M if low else TALL_STAND_OFF_M)
+            if visit.side is None and front not in visit.sides and cone.any():
+                visit.side = front
+                visit.sides.append(front)
         for _, side, direction in self._sides(body or part):  # most floor first: likely its front
             if visit.side is None and direction not in visit.sides and (reachable & fresh & side).any():
                 visit.side = direction  # each side of it once
                 visit.sides.append(direction)
             if direction == visit.side:
                 goal = reachable & fresh & side
+        if cone is not None and visit.side == front and cone.any():
+            goal = cone
         if not goal.any():
             self.events.append(f"search({obj}): no other place to look into the {kind} from")
             return None
@@ -547,9 +673,27 @@ class ContainerSearch(Approach):
             visit.extent = self._extent_of(visit.instance_id)
         return visit.extent or searched_box(visit.target, self.cfg.search)
 
+    def _note_containers(self) -> None:
+        """Remember the container instances in this frame (``sightings``): the doors a search may open."""
+        seen = {kind: self.view.visible(kind) for kind in self.onto.enclosing}
+        if not any(seen.values()):
+            return
+        view = self.view
+        votes = sightings.face_votes(
+            view.percept.instances, view.percept.depth, view.usable, view.camera, view.pose
+        )
+        for kind, instances in seen.items():
+            sightings.note(self.state.containers, kind, instances, votes)
+
+    def _mark_opened(self, visit: ContainerVisit, obj: str) -> None:
+        """The visited container instance was opened (or given up on) for ``obj``: not a candidate again."""
+        point = visit.opened_at or visit.target
+        sightings.mark_searched(self.state.containers, visit.object_type, point, visit.instance_id, obj)
+
     def _skip_container(self, obj: str, attempt: Attempt, why: str) -> Outcome:
         visit = attempt.search.visit
         assert visit is not None
+        self._mark_opened(visit, obj)
         self.state.searched.setdefault(obj, []).append(self._visited_box(visit))
         attempt.search.visit = None
         self.events.append(f"search({obj}): skipping the {visit.object_type}: {why}")
@@ -568,6 +712,7 @@ class ContainerSearch(Approach):
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id
                 search.containers_opened += 1
+                self._mark_opened(visit, attempt.subgoal.obj)
                 self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
                 if pending.box is not None:
                     self.state.memory.opened_box[visit.object_type] = pending.box
@@ -577,8 +722,10 @@ class ContainerSearch(Approach):
             elif pending.click is not None:  # nothing changed: it stands open already; look in all the same
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id
+                self._mark_opened(visit, attempt.subgoal.obj)
                 self.events.append(f"search: the {visit.object_type} was open already")
         elif visit.stage == "close":
+            self._mark_opened(visit, attempt.subgoal.obj)
             self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))
             search.visit = None
             self.events.append(f"search: closed {visit.object_type} again")

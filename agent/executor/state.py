@@ -105,6 +105,20 @@ class Memory:
 
 
 @dataclass
+class Sighting:
+    """One container instance seen (``sightings``): where its visible face's centroid is, from the fullest
+    view so far."""
+
+    object_type: str
+    point: Point
+    instance_id: int
+    pixels: int  # pixels of the view the point came from
+    searched_for: list[str] = field(default_factory=list)  # target types it was opened (or tried) for
+    faces: list[int] = field(default_factory=lambda: [0, 0, 0, 0])  # samples of its vertical faces seen
+    # looking toward 0°, 90°, 180° and -90° (``sightings.face_votes``)
+
+
+@dataclass
 class ContainerVisit:
     """One closed container opened to look for the target (the search's last resort)."""
 
@@ -189,6 +203,7 @@ class ExecutorState:
     searched: dict[str, list[Box]] = field(default_factory=dict)  # target type -> containers looked into
     opened_for: dict[str, list[int]] = field(default_factory=dict)  # target type -> container ids opened
     looked_at: dict[str, list[Box]] = field(default_factory=dict)  # target type -> open receptacles seen
+    containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
     failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
     given_up: int = 0  # subgoals abandoned to repair
     last_failed_action: str | None = None  # the previous action, when it failed (Alg. 3 line 80)

@@ -37,6 +37,8 @@ class MapConfig:
     """While holding an object, points closer than this to the camera are ignored (HLSM A.3), metres."""
     carve_margin_m: float = 0.05
     """A voxel is seen empty only if its centre is this much nearer than the surface behind it, metres."""
+    carve_floor_clearance_m: float = 0.1
+    """The lowest height whose visibility carves a voxel (``bin_bottoms_m``), metres above the floor."""
     floor_probe_m: float = 0.05
     """A cell's floor point counts as seen when the depth at its pixel is within this of its own, metres."""
     max_points: int = 90_000
@@ -84,8 +86,11 @@ class MapConfig:
 
         HLSM tests the voxel centre; with 25 cm tall bins a table top lying in a bin's lower part is below
         the centre, and a grazing view would carve the table away. Testing the bottom keeps any surface in
-        the bin (surfaces rest on things, so they sit low in their bin) while open space is still carved."""
-        return self.height_edges_m
+        the bin (surfaces rest on things, so they sit low in their bin) while open space is still carved.
+        The lowest bin's point is raised to ``carve_floor_clearance_m``: at its 5 cm bottom the floor lies
+        within ``carve_margin_m`` behind it whenever the view is steep, so a cabinet door closed beside the
+        agent stayed an obstacle at its feet."""
+        return tuple(max(edge, self.carve_floor_clearance_m) for edge in self.height_edges_m)
 
     def cells(self, metres: float) -> int:
         """Whole cells covering ``metres``."""

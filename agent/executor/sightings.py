@@ -1,0 +1,137 @@
+"""Closed containers seen so far, one entry per instance: the container search's list of doors to try.
+
+The map knows where cabinet voxels are, not where one cabinet ends and the next begins: a row of thirty
+doors is one cluster, two drawers stacked 26 cm apart fall into the same height bins, and an opened door
+adds cells in front of the row. Searching by map parts opened some doors twice and never reached others
+(a kettle behind a door seen a dozen times, a knife in the drawer above the one opened). Segmentation does
+tell instances apart, so every instance of a container type seen in a frame is remembered here with a
+world point on its face; the search opens those one by one and falls back to map parts only for
+containers never seen as instances.
+
+Oracle segmentation ids are stable within an episode; a learned segmenter's connected components are not,
+so an id only identifies a sighting near where it was seen before.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from agent.executor.clicks import VisibleInstance, pixel_points
+from agent.executor.state import Point, Sighting
+from agent.geometry import Camera, Pose, camera_position
+
+SAME_ID_M = 0.6
+"""Metres, horizontally: a sighting with the same segmentation id this close is the same instance (its
+centroid moves as more or less of it shows, up and down a 1.8 m fridge most)."""
+SAME_PLACE_M = 0.2
+"""Metres: a sighting of the same type this close is the same instance, whatever its id."""
+FACE_STRIDE = 2
+"""Pixels between the samples whose surface normals vote for the way an instance faces."""
+MAX_STEP_M = 0.1
+"""Metres: neighbouring samples farther apart than this straddle an edge and cast no vote."""
+UPRIGHT = 0.5
+"""A normal whose vertical part is at most this fraction of its length belongs to a vertical face."""
+DIRECTIONS: tuple[float, ...] = (0.0, 90.0, 180.0, -90.0)
+"""The four axis directions a face can look toward, degrees (0 toward +z, 90 toward +x)."""
+MIN_PIXELS = 40
+"""Visible pixels an instance needs to be remembered (a sliver at the image edge places its point badly)."""
+
+
+def same_instance(sighting: Sighting, object_type: str, point: Point, instance_id: int | None) -> bool:
+    """Whether an instance seen at ``point`` is the one ``sighting`` remembers."""
+    if sighting.object_type != object_type:
+        return False
+    if math.dist(sighting.point, point) <= SAME_PLACE_M:
+        return True
+    across = math.hypot(sighting.point[0] - point[0], sighting.point[2] - point[2])
+    return instance_id == sighting.instance_id and across <= SAME_ID_M
+
+
+def find(
+    sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None
+) -> Sighting | None:
+    """The remembered instance seen at ``point`` (the nearest when several qualify), or None."""
+    matches = [s for s in sightings if same_instance(s, object_type, point, instance_id)]
+    return min(matches, key=lambda s: math.dist(s.point, point)) if matches else None
+
+
+def face_votes(
+    instances: np.ndarray, depth: np.ndarray, usable: np.ndarray, camera: Camera, pose: Pose
+) -> dict[int, np.ndarray]:
+    """Instance id -> int [4]: samples of its vertical faces looking toward each of ``DIRECTIONS``.
+
+    Surface normals from the depth of neighbouring samples (on one instance, no edge between them); a
+    cabinet's front shows in most views, its side only from beside it, so the votes of all views tell the
+    way it faces.
+    """
+    H, W = depth.shape
+    rows, cols = np.mgrid[0:H:FACE_STRIDE, 0:W:FACE_STRIDE]  # [h, w] each
+    h, w = rows.shape
+    points = pixel_points(rows.ravel(), cols.ravel(), depth, camera, pose).reshape(h, w, 3)
+    ids = instances[rows, cols]  # [h, w]
+    ok = usable[rows, cols]
+    right, down = points[:-1, 1:] - points[:-1, :-1], points[1:, :-1] - points[:-1, :-1]  # [h-1, w-1, 3]
+    normal = np.cross(down, right)
+    here = ids[:-1, :-1]
+    valid = (
+        ok[:-1, :-1]
+        & ok[:-1, 1:]
+        & ok[1:, :-1]
+        & (ids[:-1, 1:] == here)
+        & (ids[1:, :-1] == here)
+        & (here != 0)
+        & (np.linalg.norm(right, axis=2) <= MAX_STEP_M)
+        & (np.linalg.norm(down, axis=2) <= MAX_STEP_M)
+    )
+    length = np.linalg.norm(normal, axis=2)
+    valid &= (length > 0) & (np.abs(normal[..., 1]) <= UPRIGHT * length)
+    toward = camera_position(camera, pose) - points[:-1, :-1]
+    flip = np.where((normal * toward).sum(axis=2) < 0, -1.0, 1.0)  # [h-1, w-1]: face the camera
+    bearing = np.degrees(np.arctan2(normal[..., 0] * flip, normal[..., 2] * flip))
+    side = np.round(bearing / 90.0).astype(np.int64) % 4  # 0: 0°, 1: 90°, 2: 180°, 3: -90°
+    votes: dict[int, np.ndarray] = {}
+    for instance_id in np.unique(here[valid]).tolist():
+        mine = valid & (here == instance_id)
+        votes[int(instance_id)] = np.bincount(side[mine], minlength=4)
+    return votes
+
+
+def facing(sighting: Sighting) -> float | None:
+    """The direction the instance's face looks toward, by the votes of every view of it (None: no votes)."""
+    if not any(sighting.faces):
+        return None
+    return DIRECTIONS[int(np.argmax(sighting.faces))]
+
+
+def note(
+    sightings: list[Sighting], object_type: str, seen: list[VisibleInstance], votes: dict[int, np.ndarray]
+) -> None:
+    """Remember the instances of a container type in this frame; a closer, fuller view moves the point."""
+    for instance in seen:
+        if instance.pixels < MIN_PIXELS:
+            continue
+        known = find(sightings, object_type, instance.point, instance.instance_id)
+        if known is None:
+            known = Sighting(object_type, instance.point, instance.instance_id, instance.pixels)
+            sightings.append(known)
+        elif instance.pixels > known.pixels:
+            known.point, known.pixels, known.instance_id = (
+                instance.point,
+                instance.pixels,
+                instance.instance_id,
+            )
+        cast = votes.get(instance.instance_id)
+        if cast is not None:
+            known.faces = [a + int(b) for a, b in zip(known.faces, cast, strict=True)]
+
+
+def mark_searched(
+    sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None, target: str
+) -> None:
+    """Record that the instance at ``point`` was opened (or given up on) while looking for ``target``; every
+    sighting that may be it (a fridge seen as two before its views merged) is done with."""
+    for known in sightings:
+        if same_instance(known, object_type, point, instance_id) and target not in known.searched_for:
+            known.searched_for.append(target)

@@ -1,0 +1,59 @@
+"""The container search's memory of seen instances (``agent.executor.sightings``) on rendered frames."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agent.executor.clicks import ClickConfig, pixel_distances, usable_pixels, visible_instances
+from agent.executor.sightings import face_votes, facing, mark_searched, note
+from agent.executor.state import Sighting
+from agent.geometry import Camera, Pose, pixel_axis_distances
+from harness.camera import CameraSpec
+from harness.render import Renderer
+from harness.world import AgentState, Room, World, WorldObject, make_object_id
+
+CAMERA = Camera(300, 300, 90.0)
+
+
+def _cabinet(x: float, y: float, z: float) -> WorldObject:
+    return WorldObject(make_object_id("Cabinet", (x, y, z)), "Cabinet", (x, y, z), (0.5, 0.8, 0.6))
+
+
+def _row_world(agent: AgentState) -> World:
+    """Two base cabinets side by side against the +z wall of a 5 m room: their fronts look toward -z."""
+    room = Room(kind="kitchen", floor=np.ones((20, 20), dtype=bool), origin=(0.0, 0.0))
+    cabinets = (_cabinet(2.25, 0.4, 4.7), _cabinet(2.75, 0.4, 4.7))
+    return World("row", room, {c.object_id: c for c in cabinets}, agent)
+
+
+def _look(world: World) -> tuple[list[Sighting], dict[int, np.ndarray]]:
+    frame = Renderer(CameraSpec(300, 300, 90.0)).render(world, want_rgb=False)
+    a = world.agent
+    pose = Pose(a.x, a.z, float(a.yaw), float(a.horizon))
+    usable = usable_pixels(pixel_distances(frame.depth, CAMERA), False, ClickConfig())
+    ids = {i for i, t in frame.legend.items() if t == "Cabinet"}
+    mask = np.isin(frame.instances, list(ids))
+    reach = pixel_axis_distances(frame.depth, CAMERA, pose.horizon)
+    seen = visible_instances(mask, frame.instances, reach, usable, frame.depth, CAMERA, pose, ClickConfig())
+    votes = face_votes(frame.instances, frame.depth, usable, CAMERA, pose)
+    sightings: list[Sighting] = []
+    note(sightings, "Cabinet", seen, votes)
+    return sightings, votes
+
+
+def test_each_cabinet_of_a_row_is_one_sighting_facing_the_room_even_seen_from_aside() -> None:
+    # From 1.5 m to the side the cabinets' side panel shows too; the fronts still win the vote.
+    for x in (2.5, 1.0):
+        sightings, _ = _look(_row_world(AgentState(x=x, z=3.125, yaw=0, horizon=30)))
+        assert len(sightings) == 2, [s.point for s in sightings]
+        assert {facing(s) for s in sightings} == {180.0}
+        xs = sorted(s.point[0] for s in sightings)
+        assert xs[0] < 2.5 < xs[1], "one sighting per door, each on its own cabinet"
+
+
+def test_a_sighting_opened_for_a_target_is_not_offered_again_for_it() -> None:
+    sightings, _ = _look(_row_world(AgentState(x=2.5, z=3.125, yaw=0, horizon=30)))
+    first = sightings[0]
+    mark_searched(sightings, "Cabinet", first.point, first.instance_id, "Mug")
+    assert first.searched_for == ["Mug"]
+    assert sightings[1].searched_for == [], "its neighbour still needs opening"
