@@ -301,3 +301,22 @@ def test_the_potato_behind_a_fridge_door_seen_edge_on_is_found_inside(client: Te
     potato inside lies behind that face (generated valid_unseen Boil X game 16, where the agent once took
     the fridge to be as thin as its door and searched the kitchen instead)."""
     _solves_generated_game(client, 16, "Boil Potato.")
+
+
+def test_the_knife_in_the_drawer_above_the_one_opened_is_found(client: TestClient) -> None:
+    """ "Open Drawer, Navigate ButterKnife": two drawers stacked 26 cm apart fall into the same map bins; the
+    search must open the other instance, not rule out both with the first (generated valid_unseen game 63,
+    where the agent once explored the room instead)."""
+    _solves_generated_game(client, 63, "Put all ButterKnife on any Desk.")
+
+
+def test_the_kettle_behind_a_cabinet_door_seen_many_times_is_found(client: TestClient) -> None:
+    """A row of cabinets opened door by door as seen (generated valid_unseen game 60: the map-part search
+    once skipped the kettle's cabinet a dozen times as "not in view where it should be")."""
+    _solves_generated_game(client, 60, "Water the plant.")
+
+
+def test_the_mug_in_a_base_cabinet_is_looked_for_from_in_front_of_it(client: TestClient) -> None:
+    """A mug 0.4 m inside a base cabinet shows only from 0.75 m in front of it: from nearer, or from beside
+    it, the counter top and the cabinet's walls hide it (generated valid_unseen game 61)."""
+    _solves_generated_game(client, 61, "Prepare coffee in a clean mug.")
