@@ -678,9 +678,10 @@ class ContainerSearch(Approach):
         seen = {kind: self.view.visible(kind) for kind in self.onto.enclosing}
         if not any(seen.values()):
             return
-        view = self.view
+        view, percept = self.view, self.view.percept
+        wanted = [v.instance_id for found in seen.values() for v in found if v.pixels >= sightings.MIN_PIXELS]
         votes = sightings.face_votes(
-            view.percept.instances, view.percept.depth, view.usable, view.camera, view.pose
+            percept.instances, percept.depth, view.usable, view.camera, view.pose, wanted
         )
         for kind, instances in seen.items():
             sightings.note(self.state.containers, kind, instances, votes)

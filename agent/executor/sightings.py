@@ -58,20 +58,31 @@ def find(
 
 
 def face_votes(
-    instances: np.ndarray, depth: np.ndarray, usable: np.ndarray, camera: Camera, pose: Pose
+    instances: np.ndarray,
+    depth: np.ndarray,
+    usable: np.ndarray,
+    camera: Camera,
+    pose: Pose,
+    wanted: list[int],
 ) -> dict[int, np.ndarray]:
-    """Instance id -> int [4]: samples of its vertical faces looking toward each of ``DIRECTIONS``.
+    """Instance id (of ``wanted``) -> int [4]: samples of its vertical faces looking toward each of
+    ``DIRECTIONS``.
 
     Surface normals from the depth of neighbouring samples (on one instance, no edge between them); a
     cabinet's front shows in most views, its side only from beside it, so the votes of all views tell the
-    way it faces.
+    way it faces. Only the box around the wanted instances' samples is back-projected.
     """
-    H, W = depth.shape
-    rows, cols = np.mgrid[0:H:FACE_STRIDE, 0:W:FACE_STRIDE]  # [h, w] each
+    sampled = instances[::FACE_STRIDE, ::FACE_STRIDE]  # [h, w]
+    rows_in, cols_in = np.nonzero(np.isin(sampled, wanted))
+    if len(rows_in) == 0:
+        return {}
+    r0, r1 = int(rows_in.min()), min(int(rows_in.max()) + 2, sampled.shape[0])
+    c0, c1 = int(cols_in.min()), min(int(cols_in.max()) + 2, sampled.shape[1])
+    rows, cols = np.mgrid[r0:r1, c0:c1] * FACE_STRIDE  # [h, w] each, pixel indices
     h, w = rows.shape
     points = pixel_points(rows.ravel(), cols.ravel(), depth, camera, pose).reshape(h, w, 3)
     ids = instances[rows, cols]  # [h, w]
-    ok = usable[rows, cols]
+    ok = usable[rows, cols] & np.isin(ids, wanted)
     right, down = points[:-1, 1:] - points[:-1, :-1], points[1:, :-1] - points[:-1, :-1]  # [h-1, w-1, 3]
     normal = np.cross(down, right)
     here = ids[:-1, :-1]

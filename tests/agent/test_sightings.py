@@ -35,7 +35,7 @@ def _look(world: World) -> tuple[list[Sighting], dict[int, np.ndarray]]:
     mask = np.isin(frame.instances, list(ids))
     reach = pixel_axis_distances(frame.depth, CAMERA, pose.horizon)
     seen = visible_instances(mask, frame.instances, reach, usable, frame.depth, CAMERA, pose, ClickConfig())
-    votes = face_votes(frame.instances, frame.depth, usable, CAMERA, pose)
+    votes = face_votes(frame.instances, frame.depth, usable, CAMERA, pose, [v.instance_id for v in seen])
     sightings: list[Sighting] = []
     note(sightings, "Cabinet", seen, votes)
     return sightings, votes
