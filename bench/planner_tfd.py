@@ -9,7 +9,7 @@ with ``bench/results/agent_oracle_tfd.json`` (the expert's subgoals on the same 
 what the planner costs.
 
 Run: ``.venv/bin/python -m bench.planner_tfd [--n 100] [--workers 2]``; writes
-``bench/results/planner_tfd.json``. The run folder (``--runs``) resumes when started again.
+``bench/results/planner_tfd.json``. The run folder (``--runs``) resumes when started again by the same commit.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.tatc_commander import current_commit, level_summary
+from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.evaluate import EvalConfig, evaluate
 from harness.runner import DEFAULT_CAMERA, service_url
 
@@ -62,7 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
-        result = evaluate(config, args.runs, url, args.workers)
+        result = evaluate(config, runs_for_commit(args.runs, commit), url, args.workers)
     summary = level_summary(result)
     report = {
         "benchmark": "tfd_model_planner",

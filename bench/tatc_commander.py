@@ -5,9 +5,10 @@ The issue's bar: with full information, SR ≥ 70% on 100 generated valid_unseen
 ``python -m harness eval --benchmark tatc`` run (``harness.evaluate``: episode i is the generated game i,
 task i % 12; the commander bot in the harness process, the follower a real service subprocess reached over
 HTTP; frames at 300x300 with depth and segmentation, as ``harness eval`` defaults). The runs go to
-``--runs DIR/<level>`` and resume when started again. Beside them, the same commander with a follower that
-carries out each instruction to the letter (``harness.commander.episode.run_obedient_episode``) gives the
-upper bound the instructions allow: what the follower loses is the difference.
+``--runs DIR/<level>`` and resume when started again by the same commit. Beside them, the same commander
+with a follower that carries out each instruction to the letter
+(``harness.commander.episode.run_obedient_episode``) gives the upper bound the instructions allow: what the
+follower loses is the difference.
 
 Run: ``.venv/bin/python -m bench.tatc_commander [--n 100] [--n-other 24] [--workers 2]``; writes
 ``bench/results/tatc_commander.json``. It takes about an hour on the shared 2-core machine.
@@ -18,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import shutil
 import subprocess
 import time
 from collections import Counter
@@ -42,6 +44,19 @@ def current_commit() -> str:
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False
     )
     return done.stdout.strip() or "unknown"
+
+
+def runs_for_commit(folder: Path, commit: str) -> Path:
+    """``folder``, ready to resume only episodes run by this commit's code: a folder left by another
+    commit (or by one not recorded) is cleared first, and said so, so a bench never mixes code versions."""
+    marker = folder / "commit"
+    if folder.exists() and (not marker.exists() or marker.read_text().strip() != commit):
+        was = marker.read_text().strip() if marker.exists() else "an unrecorded commit"
+        print(f"{folder}: results of {was}, not {commit}; starting afresh")
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    marker.write_text(commit + "\n")
+    return folder
 
 
 def level_summary(result: dict[str, Any]) -> dict[str, Any]:
@@ -97,6 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     levels: dict[str, Any] = {}
     commit = current_commit()  # what the service starts with (later commits never reach it)
+    runs = runs_for_commit(args.runs, commit)
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         for level in args.levels:
@@ -110,7 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 info=level,
             )
             level_started = time.perf_counter()
-            result = evaluate(config, args.runs / level, url, args.workers)
+            result = evaluate(config, runs / level, url, args.workers)
             levels[level] = {**level_summary(result), "wall_s": round(time.perf_counter() - level_started, 1)}
     report = {
         "benchmark": "tatc_commander",
