@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,13 +36,22 @@ TRUNCATED_RULE = "plan-truncated"
 """Logged when a plan is cut to ``PlannerConfig.max_subgoals`` (the seed's 300)."""
 
 
-@functools.cache
+_LOADING = threading.Lock()
+
+
 def load_generator(checkpoint: Path = DEFAULT_CHECKPOINT_DIR) -> SubgoalGenerator:
-    """The planner model of ``checkpoint``, loaded on first use and then shared (one per process)."""
+    """The planner model of ``checkpoint``, loaded on first use and then shared (one per process): sessions
+    created at once on a fresh service wait for the one load instead of each loading its own copy."""
+    with _LOADING:
+        return _loaded(Path(checkpoint))
+
+
+@functools.cache
+def _loaded(checkpoint: Path) -> SubgoalGenerator:
     from models.planner.predict import SubgoalGenerator
 
     LOG.info("loading the language planner from %s", checkpoint)
-    return SubgoalGenerator.from_directory(Path(checkpoint), load_ontology())
+    return SubgoalGenerator.from_directory(checkpoint, load_ontology())
 
 
 def validation_events(prediction: PlanPrediction) -> list[RepairEvent]:

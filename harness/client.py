@@ -60,10 +60,13 @@ class ServiceError(Exception):
     """A non-2xx answer of the service, with its ``{"error", "detail"}`` body."""
 
     def __init__(self, status: int, error: str, detail: str) -> None:
-        super().__init__(f"HTTP {status} {error}: {detail}")
+        super().__init__(status, error, detail)  # all three, so it pickles across eval worker processes
         self.status = status
         self.error = error
         self.detail = detail
+
+    def __str__(self) -> str:
+        return f"HTTP {self.status} {self.error}: {self.detail}"
 
 
 def pose_of(agent: AgentState) -> dict[str, float]:

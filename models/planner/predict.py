@@ -94,6 +94,13 @@ def source_token_limit(planner: PlannerModel) -> int:
     return int(planner.model.config.to_dict().get("max_position_embeddings") or DEFAULT_SOURCE_TOKENS)
 
 
+TORCH_LOCK = threading.Lock()
+"""One planner model loads or generates at a time in this process. Loading through transformers switches
+torch to the meta device (its empty-weights initialisation) for every thread, so a generation running
+beside a load failed with "Tensor on device cpu is not on the expected device meta" (two sessions created
+at once on a fresh service); generations on 2 cores gain nothing in parallel anyway."""
+
+
 class SubgoalGenerator:
     """A loaded planner model that turns formatted inputs into validated plans (beam search)."""
 
@@ -104,22 +111,21 @@ class SubgoalGenerator:
         self.ontology = ontology
         self.generation = generation or GenerationConfig()
         self.max_source_tokens = source_token_limit(planner)
-        self._lock = (
-            threading.Lock()
-        )  # sessions share one model; generations on 2 cores gain nothing in parallel
 
     @classmethod
     def from_directory(
         cls, path: Path, ontology: Ontology, generation: GenerationConfig | None = None
     ) -> SubgoalGenerator:
-        return cls(load_planner_model(path), ontology, generation)
+        with TORCH_LOCK:
+            model = load_planner_model(path)
+        return cls(model, ontology, generation)
 
     def generate_texts(self, sources: Sequence[str]) -> list[str]:
         """Raw decoded plans for a batch of inputs (inputs longer than the model allows keep their end)."""
         if not sources:
             return []
         tokenizer = self.planner.tokenizer
-        with self._lock, torch.inference_mode():
+        with TORCH_LOCK, torch.inference_mode():
             tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
             encoded = tokenizer(
                 list(sources),

@@ -6,7 +6,9 @@ the runner drives it over TCP exactly as ``python -m harness run`` does.
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -248,6 +250,10 @@ def test_an_unknown_session_is_a_404_service_error(service: RunningService) -> N
     with AgentClient(service.base_url) as client, pytest.raises(ServiceError) as caught:
         client.get_session("no-such-session")
     assert caught.value.status == 404 and caught.value.error == "session_not_found"
+    # the eval CLI's worker processes send it back to the parent: it must survive pickling whole
+    again = pickle.loads(pickle.dumps(caught.value))
+    assert (again.status, again.error, again.detail) == (404, "session_not_found", caught.value.detail)
+    assert str(again) == str(caught.value)
 
 
 def test_a_frame_of_the_wrong_size_is_refused_with_422(
@@ -260,3 +266,18 @@ def test_a_frame_of_the_wrong_size_is_refused_with_422(
             client.step(session_id, small, step_index=0)
         assert client.get_session(session_id)["step"] == 0, "a refused step must leave the session unchanged"
     assert caught.value.status == 422 and "96x96" in caught.value.detail
+
+
+def test_sessions_created_at_once_on_a_fresh_service_all_get_model_plans(short_episode: Episode) -> None:
+    # The first sessions of a service load the language planner; a generation running beside that load
+    # once failed with a 500 ("Tensor on device cpu is not on the expected device meta").
+    payload = session_payload(short_episode, RunnerOptions(planner="model"))
+    with running_service() as fresh, ThreadPoolExecutor(max_workers=3) as pool:
+
+        def create(_: int) -> dict[str, Any]:
+            with AgentClient(fresh.base_url) as client:
+                return client.create_session(payload)
+
+        created = list(pool.map(create, range(3)))
+    assert all(c["plan"]["subgoals"] for c in created), created
+    assert {c["plan"]["source"] for c in created} == {"model"}
