@@ -366,6 +366,7 @@ class AgentSession:
             semantic_map.record_collision(previous, self.last_action)
             self.executor.navigator.record_collision(previous, self.last_action, semantic_map.frame)
         holding = self._holding_now(success.success)
+        held_type = self._held_type_now(success.success) if holding else None
         stats = semantic_map.update(percept, pose, holding=holding)
         mapped = time.perf_counter()
         view = SessionMapView(
@@ -374,6 +375,7 @@ class AgentSession:
             self.camera,
             pose,
             holding=holding,
+            held_type=held_type,
             last_success=success.success,
             ignored=self.executor.state.ignored,
             explore_attempts=self.executor.state.explore_attempts,
@@ -463,6 +465,15 @@ class AgentSession:
             if pending.action == "Place":
                 return False
         return self.executor.state.belief.held is not None
+
+    def _held_type_now(self, last_success: bool | None) -> str | None:
+        """The type in the hand in this frame (``_holding_now``'s judgement): the plan's Pickup that just
+        worked, else the belief's; None when not known."""
+        pending = self.executor.state.pending
+        if pending is not None and last_success is not False and pending.action == "Pickup":
+            index = pending.plan_index
+            return self.plan[index].obj if index is not None and index < len(self.plan) else None
+        return self.executor.state.belief.held
 
     def _sync_hand(self, obs: Observation) -> None:
         """The caller's ``held_object`` (when sent) overrides the believed hand."""

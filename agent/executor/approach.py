@@ -26,6 +26,8 @@ from symbolic.thor import INTERACTION_DISTANCE_M
 
 A = SubgoalAction
 
+FRONT_FLOOR_SHARE = 0.5
+"""Share of the most open side's floor a remembered front needs to be believed (``_known_front``)."""
 HEADING_KEEP_M = 0.3
 """Metres: a mapped instance this close to the one walked toward last step is that one."""
 
@@ -92,9 +94,16 @@ class Approach(InstanceChoice):
         return upcoming is not None and upcoming.obj == obj and upcoming.action in (A.OPEN, A.PLACE)
 
     def _sides(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
-        """The four sides of a piece of furniture (90° sectors around its centre), most open floor first:
-        (standable known cells 0.4-1.6 m from its centre, bool [X, Z] cells within
-        ``front_half_angle_deg`` of that side's direction and as far, the direction in degrees)."""
+        """The four sides of a piece of furniture (``_side_floor``), its known front first (``_known_front``),
+        then most open floor first."""
+        sides = self._side_floor(body)
+        front = self._known_front(body, sides)
+        return sorted(sides, key=lambda side: (side[2] != front, -side[0]))
+
+    def _side_floor(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
+        """The four sides of a piece of furniture (90° sectors around its centre): (standable known cells
+        0.4-1.6 m from its centre, bool [X, Z] cells within ``front_half_angle_deg`` of that side's
+        direction and as far, the direction in degrees)."""
         view = self.view
         frame = view.map.frame
         X, Z = view.map.shape
@@ -115,15 +124,22 @@ class Approach(InstanceChoice):
             cells = np.zeros((X, Z), dtype=bool)
             cells[window] = (off <= self.cfg.front_half_angle_deg) & (distance <= 1.6)
             sides.append((int((ring & (off <= 45.0)).sum()), cells, centre))
-        front = self._known_front(body)
-        return sorted(sides, key=lambda side: (side[2] != front, -side[0]))
+        return sides
 
-    def _known_front(self, body: MapCluster) -> float | None:
-        """The direction this container was seen to open toward (``Memory.fronts``), if it was."""
+    def _known_front(
+        self, body: MapCluster, sides: list[tuple[int, np.ndarray, float]] | None = None
+    ) -> float | None:
+        """The direction this container was seen to open toward (``Memory.fronts``), if it was and there is
+        floor to stand on that way (at least ``FRONT_FLOOR_SHARE`` of the most open side's, ``_side_floor``,
+        passed as ``sides`` when at hand): a microwave's door swings sideways, so its swing can point at
+        the wall beside it."""
         near = [f for f in self.state.memory.fronts if body.distance_to(f[0], f[1]) <= 0.5]
         if not near:
             return None
-        return min(near, key=lambda f: math.hypot(f[0] - body.x, f[1] - body.z))[2]
+        front = min(near, key=lambda f: math.hypot(f[0] - body.x, f[1] - body.z))[2]
+        floor_toward = {direction: count for count, _, direction in sides or self._side_floor(body)}
+        most = max(floor_toward.values())
+        return front if most == 0 or floor_toward.get(front, 0) >= FRONT_FLOOR_SHARE * most else None
 
     def _front_cells(self, body: MapCluster) -> np.ndarray | None:
         """bool [X, Z]: cells on the side of a container that faces the room, or None when no side stands out.
@@ -133,7 +149,7 @@ class Approach(InstanceChoice):
         """
         sides = self._sides(body)
         (best, cells, direction), (second, _, _) = sides[0], sides[1]
-        if direction == self._known_front(body):
+        if direction == self._known_front(body, sides):
             return cells
         if best < self.cfg.front_min_cells or best < self.cfg.front_margin * second:
             return None

@@ -89,11 +89,16 @@ def pixel_distances(depth: np.ndarray, camera: Camera) -> np.ndarray:
     return depth * pixel_ray_lengths(camera)
 
 
-def usable_pixels(distances: np.ndarray, holding: bool, config: ClickConfig) -> np.ndarray:
-    """bool [H, W]: pixels with a depth reading that are not the held object."""
+def usable_pixels(
+    distances: np.ndarray, holding: bool, config: ClickConfig, held: np.ndarray | None = None
+) -> np.ndarray:
+    """bool [H, W]: pixels with a depth reading that are not the held object: while holding, the pixels
+    nearer than ``holding_min_distance_m`` that are of the held type (``held``, bool [H, W]), or all of
+    them when that is not known. A microwave 0.5 m ahead stays clickable while the bowl for it is held."""
     usable = distances > 0
     if holding:
-        usable &= distances >= config.holding_min_distance_m
+        near = distances < config.holding_min_distance_m
+        usable &= ~(near & held) if held is not None else ~near
     return usable
 
 

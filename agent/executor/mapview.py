@@ -149,6 +149,7 @@ class SessionMapView:
         pose: Pose,
         *,
         holding: bool,
+        held_type: str | None = None,
         last_success: bool | None,
         ignored: list[IgnoredSpot],
         explore_attempts: Mapping[str, int],
@@ -167,7 +168,10 @@ class SessionMapView:
         self._explore_attempts = dict(explore_attempts)
         self.distances = pixel_distances(percept.depth, camera)  # [H, W] metres from the camera
         self.reach = pixel_axis_distances(percept.depth, camera, pose.horizon)  # [H, W] from the body's axis
-        self.usable = usable_pixels(self.distances, holding, click_config)  # [H, W]
+        held = None
+        if holding and held_type in semantic_map.classes.types:
+            held = np.asarray(percept.class_ids == semantic_map.classes.id_of(held_type))
+        self.usable = usable_pixels(self.distances, holding, click_config, held)  # [H, W]
         self._visible: dict[str, list[VisibleInstance]] = {}
         self._clusters: dict[str, list[MapCluster]] = {}
         self._standable: np.ndarray | None = None

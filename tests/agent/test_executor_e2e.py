@@ -255,14 +255,14 @@ def test_the_plate_washed_is_the_dirty_one_not_a_clean_one_nearer(client: TestCl
     assert not run.sim.world.objects[dirty.object_id].is_dirty, "the stained plate was not the one washed"
 
 
-def _solves_generated_game(client: TestClient, index: int, task: str) -> None:
+def _solves_generated_game(client: TestClient, index: int, task: str, max_steps: int = 300) -> None:
     """Generated valid_unseen game ``index`` (whose task reads ``task``) with the expert's subgoals as the
     plan: the agent says it is done and the task's goal conditions all hold."""
     episode = generated_episode("valid_unseen", index, DEFAULT_CAMERA)
     assert episode.task.describe() == task
     plan = ", ".join(str(s) for s in episode.future_subgoals)
 
-    run = drive(client, episode.world, plan, max_steps=300)
+    run = drive(client, episode.world, plan, max_steps=max_steps)
 
     assert run.last["done"], run.last
     assert episode.check(run.sim.world).success, episode.check(run.sim.world).unsatisfied
@@ -320,3 +320,10 @@ def test_the_mug_in_a_base_cabinet_is_looked_for_from_in_front_of_it(client: Tes
     """A mug 0.4 m inside a base cabinet shows only from 0.75 m in front of it: from nearer, or from beside
     it, the counter top and the cabinet's walls hide it (generated valid_unseen game 61)."""
     _solves_generated_game(client, 61, "Prepare coffee in a clean mug.")
+
+
+def test_the_bowl_in_hand_goes_into_the_microwave_whose_door_swung_sideways(client: TestClient) -> None:
+    """Holding the bowl of cooked slices 0.5 m before the microwave, the agent must count the microwave
+    as within reach (only the held bowl's near pixels are left out) and stand before its face, though its
+    door swung sideways when opened (generated valid_unseen N Cooked Slices game 32, once a timeout)."""
+    _solves_generated_game(client, 32, "Cook 3 slice(s) of Potato and serve in a Bowl.", max_steps=450)

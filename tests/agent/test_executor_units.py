@@ -320,3 +320,33 @@ def test_dirty_dishes_look_dirty_and_clean_ones_clean() -> None:
     assert seen_clean and seen_dirty
     assert set(seen_clean) == {"clean"}
     assert set(seen_dirty) == {"dirty"}
+
+
+def test_while_holding_only_the_held_types_near_pixels_are_unusable() -> None:
+    # A bowl held before the eye and a microwave 0.5 m ahead: the bowl's pixels are not clickable things,
+    # the microwave's are (the bowl is to go into it), though both are nearer than 0.7 m.
+    from harness.camera import CameraSpec
+    from harness.render import Renderer
+    from harness.world import AgentState, Room, World, make_object_id
+
+    bowl = WorldObject(make_object_id("Bowl", (1.0, 0.05, 1.0)), "Bowl", (1.0, 0.05, 1.0), (0.15, 0.07, 0.15))
+    oven = WorldObject(
+        make_object_id("Microwave", (2.375, 1.2, 1.9)), "Microwave", (2.375, 1.2, 1.9), (0.5, 0.3, 0.4)
+    )
+    agent = AgentState(x=2.375, z=1.375, yaw=0, horizon=30, held=bowl.object_id)
+    room = Room(kind="kitchen", floor=np.ones((20, 20), dtype=bool), origin=(0.0, 0.0))
+    world = World("held", room, {o.object_id: o for o in (bowl, oven)}, agent)
+    frame = Renderer(CameraSpec(300, 300, 90.0)).render(world, want_rgb=False)
+    camera = Camera(300, 300, 90.0)
+    distances = pixel_distances(frame.depth, camera)
+    of = {
+        t: np.isin(frame.instances, [i for i, k in frame.legend.items() if k == t])
+        for t in ("Bowl", "Microwave")
+    }
+    assert of["Bowl"].any() and (distances[of["Microwave"]] < CONFIG.holding_min_distance_m).any()
+
+    usable = usable_pixels(distances, True, CONFIG, held=of["Bowl"])
+    assert not usable[of["Bowl"]].any()
+    assert usable[of["Microwave"]].all()
+    blunt = usable_pixels(distances, True, CONFIG)  # the held type unknown: every near pixel is left out
+    assert not blunt[of["Microwave"] & (distances < CONFIG.holding_min_distance_m)].any()
