@@ -65,8 +65,8 @@ STAND_OFF_M = 0.75
 counter top hides what lies inside from a camera at 1.58 m standing closer: a mug 0.38 m behind the face of
 a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight must pass under the top)."""
 FRONT_CONE_DEG = 35.0
-"""Degrees either side of a low container's facing within which it is looked into: from the side, its
-own walls hide the inside."""
+"""Degrees either side of a container's facing within which it is opened and looked into: from the side,
+its own walls and its swung door hide the inside."""
 
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
