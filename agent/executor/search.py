@@ -675,16 +675,13 @@ class ContainerSearch(Approach):
 
     def _note_containers(self) -> None:
         """Remember the container instances in this frame (``sightings``): the doors a search may open."""
-        seen = {kind: self.view.visible(kind) for kind in self.onto.enclosing}
-        if not any(seen.values()):
-            return
         view, percept = self.view, self.view.percept
-        wanted = [v.instance_id for found in seen.values() for v in found if v.pixels >= sightings.MIN_PIXELS]
-        votes = sightings.face_votes(
-            percept.instances, percept.depth, view.usable, view.camera, view.pose, wanted
+        classes = view.map.classes
+        kinds = {classes.id_of(kind): kind for kind in self.onto.enclosing if kind in classes.types}
+        seen = sightings.observe(
+            percept.class_ids, percept.instances, percept.depth, view.usable, view.camera, view.pose, kinds
         )
-        for kind, instances in seen.items():
-            sightings.note(self.state.containers, kind, instances, votes)
+        sightings.note(self.state.containers, seen)
 
     def _mark_opened(self, visit: ContainerVisit, obj: str) -> None:
         """The visited container instance was opened (or given up on) for ``obj``: not a candidate again."""

@@ -15,10 +15,11 @@ so an id only identifies a sighting near where it was seen before.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from agent.executor.clicks import VisibleInstance, pixel_points
+from agent.executor.clicks import pixel_points
 from agent.executor.state import Point, Sighting
 from agent.geometry import Camera, Pose, camera_position
 
@@ -27,8 +28,8 @@ SAME_ID_M = 0.6
 centroid moves as more or less of it shows, up and down a 1.8 m fridge most)."""
 SAME_PLACE_M = 0.2
 """Metres: a sighting of the same type this close is the same instance, whatever its id."""
-FACE_STRIDE = 2
-"""Pixels between the samples whose surface normals vote for the way an instance faces."""
+SAMPLE_STRIDE = 3
+"""Pixels between the samples a frame's container instances are read from (centroids, face normals)."""
 MAX_STEP_M = 0.1
 """Metres: neighbouring samples farther apart than this straddle an edge and cast no vote."""
 UPRIGHT = 0.5
@@ -57,32 +58,50 @@ def find(
     return min(matches, key=lambda s: math.dist(s.point, point)) if matches else None
 
 
-def face_votes(
+@dataclass(frozen=True)
+class Seen:
+    """One container instance in this frame (``observe``)."""
+
+    object_type: str
+    instance_id: int
+    pixels: int  # visible pixels, estimated from the samples
+    point: Point  # world centroid of its visible samples
+    votes: tuple[int, int, int, int]  # samples of its vertical faces looking toward each of DIRECTIONS
+
+
+def observe(
+    class_ids: np.ndarray,
     instances: np.ndarray,
     depth: np.ndarray,
     usable: np.ndarray,
     camera: Camera,
     pose: Pose,
-    wanted: list[int],
-) -> dict[int, np.ndarray]:
-    """Instance id (of ``wanted``) -> int [4]: samples of its vertical faces looking toward each of
-    ``DIRECTIONS``.
+    kinds: dict[int, str],
+) -> list[Seen]:
+    """The instances of the container classes ``kinds`` (class id -> type) in a frame, from one
+    back-projection of every ``SAMPLE_STRIDE``-th pixel in the box around them (it runs every step).
 
-    Surface normals from the depth of neighbouring samples (on one instance, no edge between them); a
-    cabinet's front shows in most views, its side only from beside it, so the votes of all views tell the
-    way it faces. Only the box around the wanted instances' samples is back-projected.
+    Each instance's face votes come from surface normals of neighbouring samples (on one instance, no
+    edge between them): a cabinet's front shows in most views, its side only from beside it, so the votes
+    of all views tell the way it faces.
     """
-    sampled = instances[::FACE_STRIDE, ::FACE_STRIDE]  # [h, w]
-    rows_in, cols_in = np.nonzero(np.isin(sampled, wanted))
+    S = SAMPLE_STRIDE
+    wanted = np.isin(class_ids[::S, ::S], list(kinds)) & usable[::S, ::S] & (instances[::S, ::S] != 0)
+    rows_in, cols_in = np.nonzero(wanted)
     if len(rows_in) == 0:
-        return {}
-    r0, r1 = int(rows_in.min()), min(int(rows_in.max()) + 2, sampled.shape[0])
-    c0, c1 = int(cols_in.min()), min(int(cols_in.max()) + 2, sampled.shape[1])
-    rows, cols = np.mgrid[r0:r1, c0:c1] * FACE_STRIDE  # [h, w] each, pixel indices
+        return []
+    r0, r1 = int(rows_in.min()), min(int(rows_in.max()) + 2, wanted.shape[0])
+    c0, c1 = int(cols_in.min()), min(int(cols_in.max()) + 2, wanted.shape[1])
+    rows, cols = np.mgrid[r0:r1, c0:c1] * S  # [h, w] each, pixel indices
     h, w = rows.shape
     points = pixel_points(rows.ravel(), cols.ravel(), depth, camera, pose).reshape(h, w, 3)
     ids = instances[rows, cols]  # [h, w]
-    ok = usable[rows, cols] & np.isin(ids, wanted)
+    ok = wanted[r0:r1, c0:c1]  # [h, w]
+    found, inverse, counts = np.unique(ids[ok], return_inverse=True, return_counts=True)
+    sums = np.stack([np.bincount(inverse, weights=points[ok][:, k]) for k in range(3)], axis=1)  # [I, 3]
+    classes = np.zeros(len(found), dtype=np.int64)
+    classes[inverse] = class_ids[rows, cols][ok]
+
     right, down = points[:-1, 1:] - points[:-1, :-1], points[1:, :-1] - points[:-1, :-1]  # [h-1, w-1, 3]
     normal = np.cross(down, right)
     here = ids[:-1, :-1]
@@ -92,7 +111,6 @@ def face_votes(
         & ok[1:, :-1]
         & (ids[:-1, 1:] == here)
         & (ids[1:, :-1] == here)
-        & (here != 0)
         & (np.linalg.norm(right, axis=2) <= MAX_STEP_M)
         & (np.linalg.norm(down, axis=2) <= MAX_STEP_M)
     )
@@ -102,11 +120,19 @@ def face_votes(
     flip = np.where((normal * toward).sum(axis=2) < 0, -1.0, 1.0)  # [h-1, w-1]: face the camera
     bearing = np.degrees(np.arctan2(normal[..., 0] * flip, normal[..., 2] * flip))
     side = np.round(bearing / 90.0).astype(np.int64) % 4  # 0: 0°, 1: 90°, 2: 180°, 3: -90°
-    votes: dict[int, np.ndarray] = {}
-    for instance_id in np.unique(here[valid]).tolist():
-        mine = valid & (here == instance_id)
-        votes[int(instance_id)] = np.bincount(side[mine], minlength=4)
-    return votes
+    index = np.searchsorted(found, here[valid])  # every valid sample's instance is in ``found``
+    votes = np.bincount(index * 4 + side[valid], minlength=4 * len(found)).reshape(len(found), 4)
+
+    return [
+        Seen(
+            kinds[int(classes[k])],
+            int(found[k]),
+            int(counts[k]) * S * S,
+            (float(sums[k, 0] / counts[k]), float(sums[k, 1] / counts[k]), float(sums[k, 2] / counts[k])),
+            (int(votes[k, 0]), int(votes[k, 1]), int(votes[k, 2]), int(votes[k, 3])),
+        )
+        for k in range(len(found))
+    ]
 
 
 def facing(sighting: Sighting) -> float | None:
@@ -116,16 +142,14 @@ def facing(sighting: Sighting) -> float | None:
     return DIRECTIONS[int(np.argmax(sighting.faces))]
 
 
-def note(
-    sightings: list[Sighting], object_type: str, seen: list[VisibleInstance], votes: dict[int, np.ndarray]
-) -> None:
-    """Remember the instances of a container type in this frame; a closer, fuller view moves the point."""
+def note(sightings: list[Sighting], seen: list[Seen]) -> None:
+    """Remember the container instances of this frame; a fuller view moves the point, votes add up."""
     for instance in seen:
         if instance.pixels < MIN_PIXELS:
             continue
-        known = find(sightings, object_type, instance.point, instance.instance_id)
+        known = find(sightings, instance.object_type, instance.point, instance.instance_id)
         if known is None:
-            known = Sighting(object_type, instance.point, instance.instance_id, instance.pixels)
+            known = Sighting(instance.object_type, instance.point, instance.instance_id, instance.pixels)
             sightings.append(known)
         elif instance.pixels > known.pixels:
             known.point, known.pixels, known.instance_id = (
@@ -133,9 +157,7 @@ def note(
                 instance.pixels,
                 instance.instance_id,
             )
-        cast = votes.get(instance.instance_id)
-        if cast is not None:
-            known.faces = [a + int(b) for a, b in zip(known.faces, cast, strict=True)]
+        known.faces = [a + b for a, b in zip(known.faces, instance.votes, strict=True)]
 
 
 def mark_searched(

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.executor.clicks import ClickConfig, pixel_distances, usable_pixels, visible_instances
-from agent.executor.sightings import face_votes, facing, mark_searched, note
+from agent.classes import load_class_index
+from agent.executor.clicks import ClickConfig, pixel_distances, usable_pixels
+from agent.executor.sightings import facing, mark_searched, note, observe
 from agent.executor.state import Sighting
-from agent.geometry import Camera, Pose, pixel_axis_distances
+from agent.geometry import Camera, Pose
 from harness.camera import CameraSpec
 from harness.render import Renderer
 from harness.world import AgentState, Room, World, WorldObject, make_object_id
@@ -26,25 +27,25 @@ def _row_world(agent: AgentState) -> World:
     return World("row", room, {c.object_id: c for c in cabinets}, agent)
 
 
-def _look(world: World) -> tuple[list[Sighting], dict[int, np.ndarray]]:
+def _look(world: World) -> list[Sighting]:
     frame = Renderer(CameraSpec(300, 300, 90.0)).render(world, want_rgb=False)
     a = world.agent
     pose = Pose(a.x, a.z, float(a.yaw), float(a.horizon))
     usable = usable_pixels(pixel_distances(frame.depth, CAMERA), False, ClickConfig())
-    ids = {i for i, t in frame.legend.items() if t == "Cabinet"}
-    mask = np.isin(frame.instances, list(ids))
-    reach = pixel_axis_distances(frame.depth, CAMERA, pose.horizon)
-    seen = visible_instances(mask, frame.instances, reach, usable, frame.depth, CAMERA, pose, ClickConfig())
-    votes = face_votes(frame.instances, frame.depth, usable, CAMERA, pose, [v.instance_id for v in seen])
+    classes = load_class_index()
+    class_ids = np.zeros_like(frame.instances)
+    for instance_id, object_type in frame.legend.items():
+        class_ids[frame.instances == instance_id] = classes.id_of(object_type)
+    kinds = {classes.id_of("Cabinet"): "Cabinet", classes.id_of("Fridge"): "Fridge"}
     sightings: list[Sighting] = []
-    note(sightings, "Cabinet", seen, votes)
-    return sightings, votes
+    note(sightings, observe(class_ids, frame.instances, frame.depth, usable, CAMERA, pose, kinds))
+    return sightings
 
 
 def test_each_cabinet_of_a_row_is_one_sighting_facing_the_room_even_seen_from_aside() -> None:
     # From 1.5 m to the side the cabinets' side panel shows too; the fronts still win the vote.
     for x in (2.5, 1.0):
-        sightings, _ = _look(_row_world(AgentState(x=x, z=3.125, yaw=0, horizon=30)))
+        sightings = _look(_row_world(AgentState(x=x, z=3.125, yaw=0, horizon=30)))
         assert len(sightings) == 2, [s.point for s in sightings]
         assert {facing(s) for s in sightings} == {180.0}
         xs = sorted(s.point[0] for s in sightings)
@@ -52,7 +53,7 @@ def test_each_cabinet_of_a_row_is_one_sighting_facing_the_room_even_seen_from_as
 
 
 def test_a_sighting_opened_for_a_target_is_not_offered_again_for_it() -> None:
-    sightings, _ = _look(_row_world(AgentState(x=2.5, z=3.125, yaw=0, horizon=30)))
+    sightings = _look(_row_world(AgentState(x=2.5, z=3.125, yaw=0, horizon=30)))
     first = sightings[0]
     mark_searched(sightings, "Cabinet", first.point, first.instance_id, "Mug")
     assert first.searched_for == ["Mug"]
