@@ -382,9 +382,10 @@ class SemanticMap:
 
     # ----- 2D views -------------------------------------------------------------------------------------
     def presence(self, object_type: str | int) -> np.ndarray:
-        """bool [X, Z]: cells with a voxel of this type (a canonical type name or a class id)."""
+        """bool [X, Z]: cells with a voxel of this type (a canonical type name or a class id); read-only,
+        computed once per map update (a step asks for a type several times)."""
         class_id = object_type if isinstance(object_type, int) else self.classes.id_of(object_type)
-        return np.asarray((self._voxels == class_id).any(axis=2))
+        return self._view(f"presence:{class_id}", lambda: np.asarray((self._voxels == class_id).any(axis=2)))
 
     def obstacles(self) -> np.ndarray:
         """bool [X, Z]: something other than floor occupies the obstacle band (HLSM A.6.1's OBSTACLE)."""
