@@ -142,10 +142,9 @@ def container_candidates(
     target_type: str,
     checked: list[Box],
     config: SearchConfig,
-    prefer: str | None = None,
 ) -> list[ContainerCandidate]:
-    """Mapped container parts that may hold the target and were not looked into yet: of the ``prefer``
-    type first (the plan's hint), nearest first."""
+    """Mapped container parts that may hold the target and were not looked into yet (``opening_order``
+    ranks them with the sighted instances)."""
     found = []
     pose = view.pose
     for object_type in container_types(ontology, target_type):
@@ -154,7 +153,7 @@ def container_candidates(
                 if not was_searched(point, checked):
                     distance = math.hypot(point[0] - pose.x, point[2] - pose.z)
                     found.append(ContainerCandidate(object_type, point, top_low, distance))
-    return sorted(found, key=lambda c: (c.object_type != prefer, c.distance_m))
+    return found
 
 
 def sighted_candidates(

@@ -115,7 +115,7 @@ class Sighting:
     pixels: int  # pixels of the view the point came from
     searched_for: list[str] = field(default_factory=list)  # target types it was opened (or tried) for
     faces: list[int] = field(default_factory=lambda: [0, 0, 0, 0])  # samples of its vertical faces seen
-    # looking toward 0°, 90°, 180° and -90° (``sightings.face_votes``)
+    # looking toward 0°, 90°, 180° and -90° (``sightings.observe``)
 
 
 @dataclass
