@@ -235,13 +235,19 @@ def test_a_moved_object_is_cleared_when_seen_again_and_kept_when_out_of_view() -
     assert semantic_map.obstacles()[semantic_map.world_to_cell(2.5, 3.2)], "the table stays"
 
 
-def test_free_space_is_carved_so_a_removed_floor_object_leaves_no_obstacle() -> None:
-    can = _box("GarbageCan", (2.4, 0.25, 3.0), (0.3, 0.5, 0.3))
-    world = _room_world(objects=(can,), agent=AgentState(x=2.375, z=1.375, yaw=0, horizon=30))
+def _mapped_obstacle(thing: WorldObject, agent: AgentState) -> tuple[World, SemanticMap, np.ndarray]:
+    """A room holding only ``thing``, mapped from ``agent``: its cells, all obstacles."""
+    world = _room_world(objects=(thing,), agent=agent)
     semantic_map = SemanticMap(_camera(), _pose(world))
     _observe(semantic_map, world)
-    can_cells = semantic_map.presence("GarbageCan")
-    assert can_cells.any() and semantic_map.obstacles()[can_cells].all()
+    cells = semantic_map.presence(thing.object_type)
+    assert cells.any() and semantic_map.obstacles()[cells].all()
+    return world, semantic_map, cells
+
+
+def test_free_space_is_carved_so_a_removed_floor_object_leaves_no_obstacle() -> None:
+    can = _box("GarbageCan", (2.4, 0.25, 3.0), (0.3, 0.5, 0.3))
+    world, semantic_map, can_cells = _mapped_obstacle(can, AgentState(x=2.375, z=1.375, yaw=0, horizon=30))
     open_floor = semantic_map.world_to_cell(1.6, 2.5)
     assert (semantic_map.voxels[open_floor][1:8] == 0).all(), "air above seen floor is observed empty"
 
@@ -256,11 +262,7 @@ def test_a_door_closed_at_the_agents_feet_leaves_no_obstacle() -> None:
     # A cabinet door swung out 0.45 m in front of the agent, then closed: seen steeply from where the
     # agent stands, the air just above the floor there must be carved, or the aisle stays blocked.
     door = _box("Cabinet", (2.375, 0.45, 1.85), (0.45, 0.8, 0.04))
-    world = _room_world(objects=(door,), agent=AgentState(x=2.375, z=1.375, yaw=0, horizon=60))
-    semantic_map = SemanticMap(_camera(), _pose(world))
-    _observe(semantic_map, world)
-    door_cells = semantic_map.presence("Cabinet")
-    assert door_cells.any() and semantic_map.obstacles()[door_cells].all()
+    world, semantic_map, door_cells = _mapped_obstacle(door, AgentState(x=2.375, z=1.375, yaw=0, horizon=60))
 
     world.remove(door.object_id)
     _observe(semantic_map, world)
