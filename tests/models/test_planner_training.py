@@ -164,7 +164,7 @@ def test_the_minilm_recipe_starts_from_the_pretrained_encoder_of_the_pypi_packag
 @pytest.mark.slow
 @pytest.mark.data
 def test_training_learns_real_alfred_instructions(shared_data_dir: Path, tmp_path: Path) -> None:
-    """A small BART trained for 400 steps reproduces the plans of the 64 instructions it was trained on."""
+    """A small BART trained for 2,000 steps reproduces the plans of the 64 instructions it was trained on."""
     from dataclasses import replace
 
     from models.planner.data import alfred_examples, read_jsonl_gz
@@ -175,11 +175,23 @@ def test_training_learns_real_alfred_instructions(shared_data_dir: Path, tmp_pat
     examples = alfred_examples(trajectories, ontology, styles=("task_desc",))[:64]
     files = DatasetFiles(tmp_path / "data")
     write_examples(files.train, examples)
-    recipe = tiny_recipe(400)
+    recipe = tiny_recipe(2000)
+    # Memorising: no label smoothing or dropout. Reading the input at all is a late, sudden drop of the
+    # loss for this small post-LN BART: at a peak lr of 2e-3, or with 400-800 linearly decaying steps, it
+    # never came (every plan named the commonest object first: 5% exact match); 2,000 steps at 5e-4 do.
     recipe = replace(
         recipe,
-        train=replace(recipe.train, batch_size=16, learning_rate=2e-3, warmup_steps=40, save_every=200),
-        bart=BartScratchArchitecture(d_model=128, layers=2, attention_heads=4, ffn_dim=512, vocab_size=1000),
+        train=replace(
+            recipe.train,
+            batch_size=16,
+            learning_rate=5e-4,
+            warmup_steps=40,
+            save_every=200,
+            label_smoothing=0.0,
+        ),
+        bart=BartScratchArchitecture(
+            d_model=128, layers=2, attention_heads=4, ffn_dim=512, vocab_size=1000, dropout=0.0
+        ),
     )
     train(recipe, files, tmp_path / "run", show_progress=False)
     generator = SubgoalGenerator.from_directory(tmp_path / "run" / "final", ontology)
