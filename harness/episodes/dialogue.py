@@ -639,7 +639,7 @@ def write_dialogue(
             turns.append(talk.turn("Commander", "Instruction", f"{lead} {instruction}"))
         if chance(config.ack):
             turns.append(talk.say("Driver", "Acknowledge", "driver", "ack"))
-        turns += _where(talk, chunk, worlds[i], visible[i], chance, config)
+        turns += _where(talk, chunk, worlds[i], visible[i], chance, config, ontology)
         before.append(tuple(turns))
     closing: list[Turn] = []
     if chunks:
@@ -705,20 +705,40 @@ def _where(
     visible: frozenset[str],
     chance: Callable[[float], bool],
     config: DialogueConfig,
+    ontology: Ontology,
 ) -> list[Turn]:
-    """Ask (or be told) where the first out-of-sight thing this chunk needs is."""
+    """Ask (or be told) where the things this chunk needs are, when the driver cannot see them.
+
+    The first out-of-sight target is asked about or volunteered by chance. A target shut inside a closed
+    container is always located in words: the expert walks straight to the right drawer, which a driver
+    only does when told (TEACh drivers who are not told open cabinets one by one), so a dialogue that
+    never said where the knife is would not explain the reference actions the planner learns from.
+    """
     hidden = [t for t in chunk.targets if t in world.objects and t not in visible and t != world.agent.held]
-    if not hidden:
-        return []
-    bank, rng = talk.bank, talk.rng
-    target = hidden[0]
-    place = describe_place(world, target, bank, rng)
-    name = bank.object_name(rng, world.objects[target].object_type)
-    if chance(config.ask_where):
-        ask = talk.say("Driver", "RequestForObjectLocationAndOtherDetails", "driver", "ask_where", obj=name)
-        answer = bank.say(rng, "commander", "where_answer", obj=name, where=place.text)
-        return [ask, talk.turn("Commander", "InformationOnObjectDetails", answer, place, target)]
-    if chance(config.volunteer_where):
-        text = bank.say(rng, "commander", "where_volunteer", obj=name, where=place.text)
-        return [talk.turn("Commander", "InformationOnObjectDetails", text, place, target)]
-    return []
+    turns: list[Turn] = []
+    for number, target in enumerate(hidden):
+        enclosed = _enclosed(world, target, ontology)
+        if number > 0 and not enclosed:
+            continue
+        bank, rng = talk.bank, talk.rng
+        place = describe_place(world, target, bank, rng)
+        name = bank.object_name(rng, world.objects[target].object_type)
+        if chance(config.ask_where):
+            ask = talk.say(
+                "Driver", "RequestForObjectLocationAndOtherDetails", "driver", "ask_where", obj=name
+            )
+            answer = bank.say(rng, "commander", "where_answer", obj=name, where=place.text)
+            turns += [ask, talk.turn("Commander", "InformationOnObjectDetails", answer, place, target)]
+        elif enclosed or chance(config.volunteer_where):
+            text = bank.say(rng, "commander", "where_volunteer", obj=name, where=place.text)
+            turns.append(talk.turn("Commander", "InformationOnObjectDetails", text, place, target))
+    return turns
+
+
+def _enclosed(world: World, object_id: str, ontology: Ontology) -> bool:
+    """Whether the object lies inside a closed container (a fridge, drawer or cabinet with its door shut)."""
+    holders = [world.objects[h] for h in world.parent_chain(object_id) if h in world.objects]
+    return any(
+        not h.is_open and ontology.get(h.object_type).openable and ontology.get(h.object_type).receptacle
+        for h in holders
+    )

@@ -480,3 +480,27 @@ def test_where_answers_name_the_objects_real_receptacle(bank: PhraseBank) -> Non
         parent_type = world.objects[answer.place_receptacle].object_type
         names = bank.object_names(parent_type)
         assert any(name in answer.corrected.lower() for name in names), (answer.corrected, names)
+
+
+def test_a_target_shut_in_a_closed_container_is_always_located_in_words() -> None:
+    """The knife on the counter is asked about by chance; the tomato in the closed fridge is the second
+    target of the chunk and is always located, because the expert walks straight to the fridge."""
+    world = _kitchen()
+    assert not world.objects[ID["fridge"]].is_open and world.objects[ID["tomato"]].parent_id == ID["fridge"]
+    for seed in range(30):
+        told = {t.about for t in _conversation(seed) if t.intent == "InformationOnObjectDetails"}
+        assert ID["tomato"] in told, f"seed {seed}: the tomato in the closed fridge was never located"
+
+
+def test_a_target_in_an_open_container_is_not_always_located() -> None:
+    world = _kitchen()
+    world.objects[ID["fridge"]].is_open = True
+    task = make_task_instance("N Slices Of X In Y", ("2", "Tomato", "on", "Plate"))
+    chunk = Chunk((Step("slice", 0, 6, obj="Tomato", targets=(ID["knife"], ID["tomato"])),))
+    told_tomato = 0
+    for seed in range(30):
+        dialogue = write_dialogue(
+            task, [chunk], [world], [frozenset()], load_phrase_bank(), load_ontology(), random.Random(seed)
+        )
+        told_tomato += any(t.about == ID["tomato"] for t in dialogue.turns())
+    assert told_tomato == 0, "only the first out-of-sight target is located when nothing is shut away"
