@@ -1,7 +1,8 @@
 """What surfaces look like: per-type colours, procedural textures, visible states, shading and sensor noise.
 
 The RGB frames exist to train and test learned perception (the JARVIS seed's Mask R-CNN and depth
-networks, HLSM's U-Nets), so they must be learnable (each AI2-THOR type has a stable colour and texture)
+networks, HLSM's U-Nets), so they must be learnable (each AI2-THOR type has a stable colour and texture,
+told apart from the types it shares rooms with: ``harness.palette``, since boxes cannot show shape)
 without being trivially decodable: each instance is tinted slightly, textures vary with the world position
 of the hit point, faces are shaded by their normal, and every frame gets a random light gain and sensor
 noise. States that AI2-THOR shows visually are shown too: slices have a lighter cut colour, cooked food is
@@ -19,7 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.palette import assign_colours, room_groups, settling_order
 from harness.world import Liquid, WorldObject
+from symbolic.ontology import load_ontology
 
 RGB = tuple[float, float, float]
 """A colour with channels in [0, 1]."""
@@ -147,7 +150,8 @@ PALETTE: dict[str, Material] = {
     "Candle": Material((0.95, 0.92, 0.82), "plain"),
     "WateringCan": Material((0.30, 0.55, 0.45), "metal"),
 }
-"""Base colours of common AI2-THOR types; other types get ``hashed_material``."""
+"""Natural colours of common AI2-THOR types; other types get ``hashed_material``. These are preferences:
+the colour a type is drawn with is ``type_colour`` (moved where room-mates would look alike)."""
 
 CUT_COLOURS: dict[str, RGB] = {
     "Apple": (0.96, 0.90, 0.70),
@@ -183,6 +187,9 @@ COOKED_TINT: RGB = (0.55, 0.36, 0.18)  # browned food
 COOKED_MIX = 0.5  # share of COOKED_TINT in a cooked object's colour
 COOKED_DARKEN = 0.75  # brightness kept by the rest
 DIRT_COLOUR: RGB = (0.36, 0.24, 0.12)
+DISH_MAX_BROWNNESS = 0.04
+"""Things that get dirty keep (R − B) / (R + G + B) at most this (``palette.brownness``; dirt is about 0.33),
+so brown stains stay the one brown thing on them, as in AI2-THOR (the agent's stain cue relies on it)."""
 CRACK_COLOUR: RGB = (0.08, 0.07, 0.06)
 
 PIECE_SUFFIXES = ("Sliced", "Cracked")
@@ -196,6 +203,7 @@ SLICE_GAP_SHADE = 0.6  # brightness kept in a gap
 STRIPE_FREQUENCY = 2.0  # stripes per texture cell (grain is finer than the noise it wanders with)
 STRIPE_WARP = 0.8  # how far the noise bends the stripes, in stripe periods
 DIRT_SCALE_PER_M = 14.0  # blotch frequency
+DIRT_MIX = 0.9  # opacity of a blotch: enough that a green mug's stains are as brown as a white one's
 DIRT_THRESHOLD = 0.58  # noise above this is dirt
 CRACK_SCALE_PER_M = 9.0
 CRACK_HALF_WIDTH = 0.03  # noise band around 0.5 drawn as a crack
@@ -268,16 +276,47 @@ def hashed_material(object_type: str) -> Material:
 
 
 def material_for(object_type: str) -> Material:
+    """The natural material of a type (pieces share their whole's texture)."""
     return PALETTE.get(base_type(object_type)) or hashed_material(base_type(object_type))
 
 
-def cut_colour(object_type: str) -> RGB:
-    """The inside of a type: its palette cut colour, else its base colour lightened halfway to cream."""
+def natural_cut_colour(object_type: str) -> RGB:
+    """The natural inside of a type: its cut colour, else its natural colour lightened halfway to cream."""
     kind = base_type(object_type)
     if kind in CUT_COLOURS:
         return CUT_COLOURS[kind]
     r, g, b = material_for(kind).rgb
     return (0.5 * r + 0.5 * 0.97, 0.5 * g + 0.5 * 0.93, 0.5 * b + 0.5 * 0.80)
+
+
+def natural_colour(object_type: str) -> RGB:
+    """What a type would look like if it had no room-mates to be told apart from."""
+    if base_type(object_type) != object_type:
+        return natural_cut_colour(object_type)
+    return material_for(object_type).rgb
+
+
+@functools.cache
+def type_colours() -> dict[str, RGB]:
+    """The drawn base colour of every ontology type (``harness.palette``), computed once per process."""
+    ontology = load_ontology()
+    preferred = {name: natural_colour(name) for name in ontology.types}
+    groups = room_groups(ontology)
+    dishes = {name: DISH_MAX_BROWNNESS for name in ontology.types if ontology.get(name).dirtyable}
+    return assign_colours(preferred, groups, settling_order(preferred, groups), dishes)
+
+
+def type_colour(object_type: str) -> RGB:
+    """The drawn base colour of a type; names outside the ontology keep their natural colour."""
+    return type_colours().get(object_type) or natural_colour(object_type)
+
+
+def cut_colour(object_type: str) -> RGB:
+    """The inside of a type as drawn: the colour of its pieces (``BreadSliced`` for bread), so a sliced
+    loaf shows what its slices will look like."""
+    kind = base_type(object_type)
+    pieces = [f"{kind}{suffix}" for suffix in PIECE_SUFFIXES if f"{kind}{suffix}" in type_colours()]
+    return type_colour(pieces[0]) if pieces else natural_cut_colour(object_type)
 
 
 def _instance_tint(instance_key: str) -> RGB:
@@ -317,9 +356,7 @@ def _surface_colour(surface: Surface) -> RGB:
     if surface.liquid_layer:
         assert surface.liquid is not None, f"liquid layer of {surface.instance_key} has no liquid"
         return LIQUID_COLOURS[surface.liquid]
-    if base_type(surface.object_type) != surface.object_type:
-        return cut_colour(surface.object_type)
-    return material_for(surface.object_type).rgb
+    return type_colour(surface.object_type)
 
 
 def _blend(a: RGB, b: RGB, share_of_b: float) -> RGB:
@@ -473,7 +510,7 @@ def shade(
     if dirty.any():
         blotch = value_noise(tex_a[dirty] * DIRT_SCALE_PER_M + 31.0, tex_b[dirty] * DIRT_SCALE_PER_M + 17.0)
         dirty[dirty] = blotch > DIRT_THRESHOLD
-        _mix(rgb, dirty, np.array(DIRT_COLOUR, dtype=np.float32), 0.8)
+        _mix(rgb, dirty, np.array(DIRT_COLOUR, dtype=np.float32), DIRT_MIX)
     broken = table.broken.take(s)
     if broken.any():
         crack = value_noise(tex_a[broken] * CRACK_SCALE_PER_M + 5.0, tex_b[broken] * CRACK_SCALE_PER_M + 9.0)

@@ -30,6 +30,25 @@ SIZE_STEP_M = 0.05
 """Sizes drawn from a range are rounded to this, so furniture lines up with the 0.25 m floor grid often."""
 
 
+PRODUCES: dict[str, tuple[str, ...]] = {
+    "counter_run": (
+        "CounterTop",
+        "Cabinet",
+        "Drawer",
+        "Sink",
+        "SinkBasin",
+        "Faucet",
+        "StoveBurner",
+        "StoveKnob",
+    ),
+    "dresser": ("Dresser", "Drawer"),
+    "bathtub": ("Bathtub", "BathtubBasin"),
+    "shelf_stack": ("Shelf",),
+}
+"""Types an assembly (a furniture entry's ``place`` strategy in the world generator) makes besides its
+entry's own type."""
+
+
 @dataclass(frozen=True)
 class CounterRunSpec:
     """One room's kitchen-style counter runs (base units under a top, sink and stove units in the run)."""

@@ -25,7 +25,16 @@ from typing import Literal, get_args
 import numpy as np
 
 from harness import physics
-from harness.catalog import Catalog, CounterRunSpec, FurnitureSpec, ObjectSpec, RoomSpec, Span, load_catalog
+from harness.catalog import (
+    PRODUCES,
+    Catalog,
+    CounterRunSpec,
+    FurnitureSpec,
+    ObjectSpec,
+    RoomSpec,
+    Span,
+    load_catalog,
+)
 from harness.geometry import SLIDING_TYPES
 from harness.invariants import (
     EPS_M,
@@ -945,23 +954,6 @@ STRATEGIES: dict[str, Strategy] = {
     "bathtub": _place_bathtub,
 }
 """Placement strategies by the name ``catalog.json`` uses in each furniture entry's ``place``."""
-
-PRODUCES: dict[str, tuple[str, ...]] = {
-    "counter_run": (
-        "CounterTop",
-        "Cabinet",
-        "Drawer",
-        "Sink",
-        "SinkBasin",
-        "Faucet",
-        "StoveBurner",
-        "StoveKnob",
-    ),
-    "dresser": ("Dresser", "Drawer"),
-    "bathtub": ("Bathtub", "BathtubBasin"),
-    "shelf_stack": ("Shelf",),
-}
-"""Types an assembly makes besides its entry's own type."""
 
 
 def strategy(name: str) -> Strategy:

@@ -21,11 +21,18 @@ from symbolic.ontology import Ontology
 
 @dataclass(frozen=True)
 class AugmentConfig:
-    """Strengths of Algorithm 2's three recolourings (colours in [0, 1]) and how often to apply things."""
+    """Strengths of Algorithm 2's three recolourings (colours in [0, 1]) and how often to apply things.
 
-    sigma_add: float = 0.15  # σa: std of the per-class additive colour offset
-    sigma_noise: float = 0.03  # σg: std of the per-pixel additive noise
-    sigma_gain: float = 0.2  # σm: std of the per-class multiplicative colour gain around 1
+    HLSM does not print its σ values. Its frames come from 108 scenes whose furniture never changes colour,
+    so it recolours hard to make new scenes. Our harness already varies every world, and a box's colour is
+    what tells its type (``harness.palette`` keeps room-mates at least 0.075 apart in channel shares), so
+    the defaults shift a class's colour by about half that: enough to stop the network keying on exact
+    shades, too little to turn one type into another. Frames from AI2-THOR, where shape tells the type,
+    can take HLSM-strength values (σa 0.15, σm 0.2)."""
+
+    sigma_add: float = 0.04  # σa: std of the per-class additive colour offset
+    sigma_noise: float = 0.02  # σg: std of the per-pixel additive noise
+    sigma_gain: float = 0.06  # σm: std of the per-class multiplicative colour gain around 1
     augment_prob: float = 0.5  # HLSM: AUGMENT on half the examples
     flip_prob: float = 0.5  # HLSM: horizontal flip on half the examples
 
