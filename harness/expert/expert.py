@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from harness.camera import CameraSpec
 from harness.catalog import load_catalog
+from harness.expert.approach import stays_put
 from harness.expert.navigation import (
     THOROUGH_SIGHT_RENDERS,
     BodyState,
@@ -162,6 +163,8 @@ class _Episode:
             config.max_sight_renders,
         )
         self.taken: list[tuple[ActionResult, float | None, float | None, str | None]] = []
+        self.done: list[ExpertSubgoal] = []
+        """Interactions carried out so far (across re-plans), for ``approach.stays_put``."""
         self._reach_key: tuple[object, ...] | None = None
         self._reach: Reach | None = None
 
@@ -189,11 +192,23 @@ class _Episode:
         assert self._reach is not None
         return self._reach
 
-    def find(self, object_id: str, top_y: float | None, exclude: set[tuple[BodyState, float]]) -> View | None:
+    def find(
+        self,
+        object_id: str,
+        top_y: float | None,
+        exclude: set[tuple[BodyState, float]],
+        companion: tuple[str, World] | None = None,
+    ) -> View | None:
         """The cheapest verified view within the search budget; failing that, every candidate pose is tried
         (as the planner's look-ahead does before it calls an object seen), so an object that only shows
-        from a few far poses is not given up on."""
-        for budget in (self.config.max_view_renders, THOROUGH_SIGHT_RENDERS):
+        from a few far poses is not given up on. With a ``companion`` (``navigation.find_view``) only the
+        quick budget is spent: the caller falls back to a view of the object alone."""
+        budgets = (
+            (self.config.max_view_renders,)
+            if companion
+            else (self.config.max_view_renders, THOROUGH_SIGHT_RENDERS)
+        )
+        for budget in budgets:
             view = find_view(
                 self.sim.world,
                 object_id,
@@ -205,6 +220,7 @@ class _Episode:
                 reach_margin_m=self.config.reach_margin_m,
                 max_renders=budget,
                 exclude=frozenset(exclude),
+                companion=companion,
             )
             if view is not None:
                 return view
@@ -226,16 +242,32 @@ class _Episode:
             return None
         return self.sim.world.objects[subgoal.object_id].top
 
-    def interact(self, subgoal: ExpertSubgoal) -> _Stuck | None:
-        """Carry out one interaction subgoal; None on success."""
+    def here(self) -> tuple[BodyState, float]:
+        world = self.sim.world
+        ix, iz = world.room.cell_of(world.agent.x, world.agent.z)
+        return BodyState(ix, iz, world.agent.yaw), world.agent.horizon
+
+    def interact(
+        self, subgoal: ExpertSubgoal, walk: bool = False, companion: tuple[str, World] | None = None
+    ) -> _Stuck | None:
+        """Carry out one interaction subgoal; None on success. ``walk``: act from another pose than the
+        current one when there is one (``approach.stays_put`` says whether a person would walk here);
+        ``companion``: when walking anyway, prefer a pose from which the next interaction can be done too
+        (staying for this one must not cost a move before it)."""
         target = subgoal.object_id
         action = ACTION_NAME_FOR_SUBGOAL[subgoal.action]
         tried: set[tuple[BodyState, float]] = set()
         why = f"no view: no pose shows the {subgoal.object_type} within reach to {action}"
-        for _ in range(self.config.pose_attempts):
+        for attempt in range(self.config.pose_attempts):
             if target not in self.sim.world.objects:
                 return _Stuck(f"plan: {subgoal.object_type} {target} no longer exists")
-            view = self.find(target, self._top_y(subgoal), tried)
+            view = None
+            exclude = tried | {self.here()} if walk and attempt == 0 else tried
+            if companion is not None and attempt == 0:
+                view = self.find(target, self._top_y(subgoal), exclude, companion)
+            if walk and attempt == 0:
+                view = view or self.find(target, self._top_y(subgoal), exclude)
+            view = view or self.find(target, self._top_y(subgoal), tried)
             if view is None:
                 return _Stuck(why, avoid=target)
             tried.add((view.state, view.horizon))
@@ -255,6 +287,20 @@ class _Episode:
                 return _Stuck(why, avoid)
         return _Stuck(why)
 
+    def _companion(self, subgoal: ExpertSubgoal, rest: list[ExpertSubgoal]) -> tuple[str, World] | None:
+        """The next interaction's object and the world it will be seen in, when it is to be done from
+        where this one is (``approach.stays_put``): opening a door is assumed to succeed."""
+        following = next((s for s in rest if s.action is not SubgoalAction.NAVIGATE), None)
+        world = self.sim.world
+        if following is None or following.object_id not in world.objects:
+            return None
+        if not stays_put([*self.done, subgoal], following, world, self.ontology):
+            return None
+        if subgoal.action is SubgoalAction.OPEN and subgoal.object_id in world.objects:
+            world = world.copy()
+            world.objects[subgoal.object_id].is_open = True
+        return following.object_id, world
+
     def approach(self, subgoal: ExpertSubgoal) -> _Stuck | None:
         """Go where the object is in view and within reach, to do nothing there (ALFRED's look-at goal)."""
         view = self.find(subgoal.object_id, None, set())
@@ -269,7 +315,11 @@ class _Episode:
                     continue  # the next interaction walks there itself
                 stuck = self.approach(subgoal)
             else:
-                stuck = self.interact(subgoal)
+                walk = not stays_put(self.done, subgoal, self.sim.world, self.ontology)
+                companion = self._companion(subgoal, plan[index + 1 :]) if walk else None
+                stuck = self.interact(subgoal, walk, companion)
+                if stuck is None:
+                    self.done.append(subgoal)
             if stuck is not None:
                 return stuck
         return None

@@ -391,8 +391,13 @@ def find_view(
     max_renders: int = 40,
     exclude: frozenset[tuple[BodyState, float]] = frozenset(),
     ignore_motion: bool = False,
+    companion: tuple[str, World] | None = None,
 ) -> View | None:
-    """The cheapest pose from which ``target_id`` shows a clickable pixel within reach, or None."""
+    """The cheapest pose from which ``target_id`` shows a clickable pixel within reach, or None.
+
+    ``companion``: (object id, world) of the next interaction when it is to be done from the same pose
+    (``approach.stays_put``): the pose must also show that object within reach in that world (the state
+    after this interaction, e.g. with the drawer open)."""
     target = world.objects[target_id]
     instance_id = world.instance_ids[target_id]
     low = renderer.spec
@@ -415,9 +420,26 @@ def find_view(
         clicks = choose_clicks(
             frame, low, CameraPose.of_agent(view_world.agent), instance_id, full, max_distance, top_y
         )
-        if clicks:
+        if clicks and (companion is None or _also_shows(companion, cand, renderer, full, max_distance)):
             return View(cand.state, cand.horizon, clicks, cand.cost)
     return None
+
+
+def _also_shows(
+    companion: tuple[str, World],
+    cand: PoseCandidate,
+    renderer: Renderer,
+    full: CameraSpec,
+    max_distance: float,
+) -> bool:
+    """Whether the companion object shows a clickable pixel within reach from the candidate pose."""
+    object_id, world = companion
+    if object_id not in world.instance_ids:
+        return False
+    view_world = posed(world, cand.state, cand.horizon)
+    frame = renderer.render(view_world, want_rgb=False)
+    pose = CameraPose.of_agent(view_world.agent)
+    return bool(choose_clicks(frame, renderer.spec, pose, world.instance_ids[object_id], full, max_distance))
 
 
 def _budgeted(candidates: list[PoseCandidate], budget: int) -> list[PoseCandidate]:
