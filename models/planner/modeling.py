@@ -30,6 +30,7 @@ from transformers import (
 )
 
 from models.planner.config import BartScratchArchitecture, MiniLMDecoderArchitecture
+from models.planner.plan_vocab import PlanVocabulary
 from models.planner.tokenizer import end_of_target_id, minilm_model_dir
 
 PLANNER_META_FILE = "planner_meta.json"
@@ -43,6 +44,8 @@ class PlannerModel:
     model: PreTrainedModel
     tokenizer: PreTrainedTokenizerBase
     path: Path | None = None
+    plan_vocab: PlanVocabulary | None = None
+    """The decoder's whole-word plan vocabulary, when it has one (else it writes tokenizer pieces)."""
 
 
 def _token_id(tokenizer: PreTrainedTokenizerBase, *names: str) -> int:
@@ -83,48 +86,75 @@ def build_bart_scratch(arch: BartScratchArchitecture, tokenizer: PreTrainedToken
 
 
 def build_minilm_encdec(
-    arch: MiniLMDecoderArchitecture, tokenizer: PreTrainedTokenizerBase
+    arch: MiniLMDecoderArchitecture,
+    tokenizer: PreTrainedTokenizerBase,
+    kept_ids: list[int],
+    plan_vocab: PlanVocabulary,
 ) -> PreTrainedModel:
-    """MiniLM encoder (pretrained, offline) + a fresh BERT decoder with cross-attention.
+    """MiniLM encoder (pretrained, offline) cut to the pruned vocabulary + a fresh BERT decoder with
+    cross-attention that writes plan words.
 
-    The decoder's word embeddings (tied to its output layer) start as a copy of the encoder's, so target
-    words begin where the pretrained encoder put them; the three marks get new rows in both.
+    ``tokenizer`` is ``tokenizer.pruned_minilm_tokenizer``'s; ``kept_ids[i]`` is the original MiniLM id of
+    its token i, whose pretrained embedding row it gets. The planner marks get new rows near [SEP]'s.
     """
     encoder = BertModel.from_pretrained(str(minilm_model_dir()))  # pooler kept for reloading
+    pretrained = encoder.embeddings.word_embeddings.weight.detach().clone()  # [30522, 384]
     encoder.resize_token_embeddings(len(tokenizer))
-    width = encoder.config.hidden_size
+    with torch.no_grad():
+        rows = encoder.embeddings.word_embeddings.weight  # [V, 384]
+        rows[: len(kept_ids)] = pretrained[torch.tensor(kept_ids)]
+        sep_id = tokenizer.sep_token_id
+        assert sep_id is not None, "a BERT WordPiece tokenizer has [SEP]"
+        sep = pretrained[kept_ids[sep_id]]
+        for extra in range(len(kept_ids), len(tokenizer)):
+            rows[extra] = sep + 0.02 * torch.randn_like(sep)
+    encoder.config.vocab_size = len(tokenizer)
     decoder_config = BertConfig(
-        vocab_size=len(tokenizer),
-        hidden_size=width,
+        vocab_size=len(plan_vocab),
+        hidden_size=arch.hidden,
         num_hidden_layers=arch.layers,
         num_attention_heads=arch.attention_heads,
         intermediate_size=arch.ffn_dim,
         hidden_dropout_prob=arch.dropout,
         attention_probs_dropout_prob=arch.dropout,
-        max_position_embeddings=encoder.config.max_position_embeddings,
+        max_position_embeddings=arch.max_target_positions,
         is_decoder=True,
         add_cross_attention=True,
-        pad_token_id=_token_id(tokenizer, "pad"),
+        pad_token_id=plan_vocab.pad_id,
         tie_word_embeddings=True,
     )
     decoder = BertLMHeadModel(decoder_config)
-    with torch.no_grad():
-        decoder.bert.embeddings.word_embeddings.weight.copy_(encoder.embeddings.word_embeddings.weight)
-    decoder.tie_weights()
     model = EncoderDecoderModel(encoder=encoder, decoder=decoder)
-    start, eos, pad = (
-        _token_id(tokenizer, "cls", "bos"),
-        end_of_target_id(tokenizer),
-        _token_id(tokenizer, "pad"),
-    )
+    start, end, pad = plan_vocab.start_id, plan_vocab.end_id, plan_vocab.pad_id
     model.config.decoder_start_token_id = start
-    model.config.eos_token_id = eos
+    model.config.eos_token_id = end
     model.config.pad_token_id = pad
-    model.config.vocab_size = len(tokenizer)
+    model.config.vocab_size = len(plan_vocab)
     model.generation_config = GenerationConfig(
-        decoder_start_token_id=start, eos_token_id=eos, pad_token_id=pad
+        decoder_start_token_id=start, eos_token_id=end, pad_token_id=pad
     )
     return model
+
+
+def freeze_pretrained_word_embeddings(model: PreTrainedModel, trainable_from: int) -> None:
+    """Keep the encoder's pretrained embedding rows fixed and train only rows ``trainable_from`` onwards
+    (the planner marks): a word the training data never used keeps the meaning MiniLM gave it, in the same
+    space as the words that were trained. Done with a gradient mask, so the optimizer must not decay the
+    matrix either (``no_decay_parameters``)."""
+    weight = model.get_encoder().embeddings.word_embeddings.weight
+
+    def mask(grad: torch.Tensor) -> torch.Tensor:
+        grad = grad.clone()
+        grad[:trainable_from] = 0
+        return grad
+
+    weight.register_hook(mask)
+
+
+def no_decay_parameters(model: PreTrainedModel) -> set[int]:
+    """ids of parameters AdamW must not shrink: the encoder's (partly frozen) word embeddings."""
+    encoder = model.get_encoder() if isinstance(model, EncoderDecoderModel) else None
+    return {id(encoder.embeddings.word_embeddings.weight)} if encoder is not None else set()
 
 
 def count_parameters(model: torch.nn.Module) -> int:
@@ -154,7 +184,7 @@ def load_planner_model(path: Path) -> PlannerModel:
         model = AutoModelForSeq2SeqLM.from_pretrained(str(path), dtype=torch.float32)
     tokenizer = AutoTokenizer.from_pretrained(str(path))
     model.eval()
-    return PlannerModel(model=model, tokenizer=tokenizer, path=path)
+    return PlannerModel(model=model, tokenizer=tokenizer, path=path, plan_vocab=PlanVocabulary.load(path))
 
 
 def save_planner_model(
@@ -178,6 +208,8 @@ def save_planner_model(
         }
     planner.model.save_pretrained(str(path), state_dict=state)
     planner.tokenizer.save_pretrained(str(path))
+    if planner.plan_vocab is not None:
+        planner.plan_vocab.save(path)
     meta = {**meta, "weights_dtype": "float16" if half_precision else "float32"}
     (path / PLANNER_META_FILE).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 

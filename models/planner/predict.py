@@ -94,6 +94,14 @@ def source_token_limit(planner: PlannerModel) -> int:
     return int(planner.model.config.to_dict().get("max_position_embeddings") or DEFAULT_SOURCE_TOKENS)
 
 
+def target_token_limit(planner: PlannerModel) -> int:
+    """Tokens the decoder can write: one less than its position table (BERT-style decoders index
+    positions by the cache length and fail past the table), or unlimited for models without one."""
+    decoder = getattr(planner.model.config, "decoder", None)
+    positions = getattr(decoder, "max_position_embeddings", None) if decoder is not None else None
+    return int(positions) - 1 if isinstance(positions, int) else 1_000_000
+
+
 TORCH_LOCK = threading.Lock()
 """One planner model loads or generates at a time in this process. Loading through transformers switches
 torch to the meta device (its empty-weights initialisation) for every thread, so a generation running
@@ -111,6 +119,7 @@ class SubgoalGenerator:
         self.ontology = ontology
         self.generation = generation or GenerationConfig()
         self.max_source_tokens = source_token_limit(planner)
+        self.max_new_tokens = min(self.generation.max_new_tokens, target_token_limit(planner))
 
     @classmethod
     def from_directory(
@@ -121,10 +130,20 @@ class SubgoalGenerator:
         return cls(model, ontology, generation)
 
     def generate_texts(self, sources: Sequence[str]) -> list[str]:
-        """Raw decoded plans for a batch of inputs (inputs longer than the model allows keep their end)."""
+        """Raw decoded plans for a batch of inputs (inputs longer than the model allows keep their end).
+
+        A decoder with a plan vocabulary is held to the plan grammar (action, type, ..., end) during beam
+        search and decoded word by word; any other seq2seq model decodes with its tokenizer."""
         if not sources:
             return []
         tokenizer = self.planner.tokenizer
+        vocab = self.planner.plan_vocab
+        grammar = None
+        if vocab is not None:
+
+            def grammar(_: int, generated: torch.Tensor) -> list[int]:
+                return vocab.allowed_next(generated.tolist())
+
         with TORCH_LOCK, torch.inference_mode():
             tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
             encoded = tokenizer(
@@ -138,9 +157,12 @@ class SubgoalGenerator:
                 input_ids=encoded["input_ids"],
                 attention_mask=encoded["attention_mask"],
                 num_beams=self.generation.num_beams,
-                max_new_tokens=self.generation.max_new_tokens,
+                max_new_tokens=self.max_new_tokens,
                 early_stopping=True,
+                prefix_allowed_tokens_fn=grammar,
             )
+        if vocab is not None:
+            return [vocab.decode(row.tolist()) for row in output]
         return [text.strip() for text in tokenizer.batch_decode(output, skip_special_tokens=True)]
 
     def predict_many(self, sources: Sequence[str]) -> list[PlanPrediction]:

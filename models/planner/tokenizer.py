@@ -20,7 +20,7 @@ from tokenizers import (
     processors,
     trainers,
 )
-from transformers import AutoTokenizer, PreTrainedTokenizerBase, PreTrainedTokenizerFast
+from transformers import AutoTokenizer, BertTokenizer, PreTrainedTokenizerBase, PreTrainedTokenizerFast
 
 from models.planner.text import PLANNER_MARKS
 
@@ -88,6 +88,43 @@ def minilm_tokenizer() -> PreTrainedTokenizerBase:
     tokenizer = AutoTokenizer.from_pretrained(str(minilm_model_dir()))
     tokenizer.add_special_tokens({"additional_special_tokens": list(PLANNER_MARKS)})
     return tokenizer
+
+
+FIRST_WORD_ID = 999
+"""In BERT's uncased vocabulary ids 1..998 other than the five specials are [unusedN] placeholders; single
+characters start at 999 and words follow roughly from the most frequent."""
+BERT_SPECIALS: tuple[str, ...] = ("[PAD]", "[UNK]", "[CLS]", "[SEP]", "[MASK]")
+
+
+def pruned_minilm_tokenizer(
+    texts: Iterable[str], keep_first: int
+) -> tuple[PreTrainedTokenizerBase, list[int]]:
+    """MiniLM's WordPiece cut to its specials, its first ``keep_first`` character and word pieces (the
+    common English ones, so words our corpus never used still read as words) and every piece ``texts``
+    use. Returns the tokenizer and, per new id, the original id (to gather the
+    pretrained embedding rows). Words whose pieces were cut split into smaller pieces, down to characters,
+    which are all kept. The full 30k-row embedding alone would be 23 MB in fp16, over half the checkpoint
+    budget."""
+    full = minilm_tokenizer()
+    vocab = full.get_vocab()
+    used: set[int] = set()
+    batch: list[str] = []
+    for text in texts:
+        batch.append(text)
+        if len(batch) == 4096:
+            used.update(i for ids in full(batch, add_special_tokens=False).input_ids for i in ids)
+            batch = []
+    if batch:
+        used.update(i for ids in full(batch, add_special_tokens=False).input_ids for i in ids)
+    marks = {vocab[mark] for mark in PLANNER_MARKS}
+    specials = [vocab[name] for name in BERT_SPECIALS]
+    words = set(range(FIRST_WORD_ID, FIRST_WORD_ID + keep_first)) | (used - marks - set(specials))
+    kept = specials + sorted(i for i in words if i >= FIRST_WORD_ID)
+    by_id = {i: token for token, i in vocab.items()}
+    tokenizer = BertTokenizer(vocab={by_id[old]: new for new, old in enumerate(kept)}, do_lower_case=True)
+    tokenizer.add_special_tokens({"additional_special_tokens": list(PLANNER_MARKS)})
+    tokenizer.model_max_length = full.model_max_length
+    return tokenizer, kept
 
 
 def end_of_target_id(tokenizer: PreTrainedTokenizerBase) -> int:

