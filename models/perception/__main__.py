@@ -64,6 +64,9 @@ def _parser() -> argparse.ArgumentParser:
     fit.add_argument("--threads", type=int, default=2)
     fit.add_argument("--limit", type=int, default=None, help="use only the first N training frames")
     fit.add_argument("--valid-limit", type=int, default=None)
+    fit.add_argument(
+        "--init-from", type=Path, default=None, help="start from this exported checkpoint's weights"
+    )
 
     check = sub.add_parser("evaluate", help="metrics of a checkpoint on a frames folder")
     check.add_argument("--checkpoint", type=Path, required=True)
@@ -105,6 +108,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             threads=args.threads,
             limit=args.limit,
             valid_limit=args.valid_limit,
+            init_from=args.init_from,
         )
         out = train(config)
         print(f"checkpoint written to {out}")

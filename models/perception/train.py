@@ -29,6 +29,7 @@ from models.perception.network import (
     PerceptionNetConfig,
     Task,
     fingerprint,
+    load_checkpoint,
     save_checkpoint,
 )
 from models.perception.segmentation import class_weights, segmentation_loss
@@ -68,6 +69,7 @@ class TrainConfig:
     depth_target: DepthTarget = "one_hot"  # "one_hot": HLSM's bin of the true depth; "two_hot": see depth.py
     depth_l1_weight: float = 0.0  # weight of the relative L1 of the expected depth (0: cross entropy only)
     augment: AugmentConfig = field(default_factory=AugmentConfig)
+    init_from: Path | None = None  # start a new run from an exported checkpoint's weights (fine-tuning)
 
     def network(self, classes: tuple[str, ...]) -> PerceptionNetConfig:
         if self.task == "depth":
@@ -164,8 +166,10 @@ def train(config: TrainConfig) -> Path:
     """Run (or resume) training and export the checkpoint; returns the checkpoint directory.
 
     ``config.stop_at`` stops early on the schedule of ``config.steps``; running again (with the same or a
-    larger ``stop_at``, or none) continues. The run state is side-independent, so a run may resume at
-    another ``side``; the stages are recorded in the checkpoint's run config.
+    larger ``stop_at``, or none) continues. ``config.init_from`` starts a fresh run (no run state yet) from
+    an exported checkpoint of the same shape, e.g. to adapt it to newly rendered frames. The run state is
+    side-independent, so a run may resume at another ``side``; the stages are recorded in the checkpoint's
+    run config.
     """
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
@@ -178,6 +182,13 @@ def train(config: TrainConfig) -> Path:
             f"crop must be a multiple of {divisor} and at least {2 * divisor}, got {config.crop}"
         )
     model = PerceptionNet(net_config)
+    if config.init_from is not None:
+        source = load_checkpoint(config.init_from, expect=config.task)
+        if source.config.unet != net_config.unet or source.config.classes != net_config.classes:
+            raise ValueError(
+                f"{config.init_from} has another shape ({source.config.unet}) or class list than this run"
+            )
+        model.load_state_dict(source.state_dict())
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     config.run_dir.mkdir(parents=True, exist_ok=True)
     state_path = config.run_dir / STATE_FILE

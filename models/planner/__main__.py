@@ -30,6 +30,7 @@ def _build_data(args: argparse.Namespace) -> int:
         DatasetFiles(args.out),
         load_ontology(),
         teach_repeat=args.teach_repeat,
+        high_descs_per_trajectory=args.high_descs_per_trajectory,
     )
     files = DatasetFiles(args.out)
     print(f"wrote {args.out}: train {len(read_examples(files.train))}, dev {len(read_examples(files.dev))}")
@@ -191,6 +192,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     build.add_argument(
         "--teach-repeat", type=int, default=1, help="repeat each TEACh train example this often"
+    )
+    build.add_argument(
+        "--high-descs-per-trajectory",
+        type=int,
+        default=None,
+        help="train on the step-by-step style of only this many annotations per ALFRED trajectory",
     )
     build.set_defaults(run=_build_data)
 

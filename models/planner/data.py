@@ -90,9 +90,14 @@ def alfred_examples(
     ontology: Ontology,
     styles: Sequence[AlfredStyle] = ALFRED_STYLES,
     report: BuildReport | None = None,
+    high_descs_per_trajectory: int | None = None,
 ) -> list[PlannerExample]:
     """One example per annotation and style; the target is the same plan for every annotation of a
-    trajectory, because ALFRED's annotators described the one expert demonstration."""
+    trajectory, because ALFRED's annotators described the one expert demonstration.
+
+    ``high_descs_per_trajectory`` keeps only the first annotations' step-by-step style (a trajectory's
+    three step lists say the same steps; they are six times longer than a task description, so they would
+    take most of a CPU training budget)."""
     report = report if report is not None else BuildReport()
     examples: list[PlannerExample] = []
     for trajectory in trajectories:
@@ -105,6 +110,9 @@ def alfred_examples(
             continue
         for number, annotation in enumerate(trajectory["turk_annotations"]["anns"]):
             for style in styles:
+                capped = style == "high_descs" and high_descs_per_trajectory is not None
+                if capped and number >= high_descs_per_trajectory:
+                    continue
                 instruction = _alfred_instruction(annotation, style)
                 if not instruction:
                     report.skip(f"alfred:{style}", f"{task_id} annotation {number}: empty {style}")
@@ -288,17 +296,22 @@ def build_planner_datasets(
     out: DatasetFiles,
     ontology: Ontology,
     teach_repeat: int = 1,
+    high_descs_per_trajectory: int | None = None,
 ) -> BuildReport:
     """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it) and TEACh-format instances
     (when ``teach_root`` is given). Valid splits never enter training; ``teach_repeat`` repeats the TEACh
-    training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions."""
+    training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions;
+    ``high_descs_per_trajectory`` caps ALFRED's step-by-step style in training (evaluation keeps all)."""
     report = BuildReport()
     train: list[PlannerExample] = []
     dev: list[PlannerExample] = []
     evaluation: dict[str, list[PlannerExample]] = {}
     alfred = data_dir / "alfred" if data_dir is not None else None
     if alfred is not None and (alfred / "train.jsonl.gz").is_file():
-        for example in alfred_examples(read_jsonl_gz(alfred / "train.jsonl.gz"), ontology, report=report):
+        trajectories = read_jsonl_gz(alfred / "train.jsonl.gz")
+        for example in alfred_examples(
+            trajectories, ontology, report=report, high_descs_per_trajectory=high_descs_per_trajectory
+        ):
             (dev if is_dev(example.example_id.split(":")[0]) else train).append(example)
         if (alfred / "valid_seen.jsonl.gz").is_file():
             seen = alfred_examples(read_jsonl_gz(alfred / "valid_seen.jsonl.gz"), ontology, report=report)

@@ -56,6 +56,32 @@ def tiny_models(frames_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> d
     return out
 
 
+def test_a_run_can_start_from_an_exported_checkpoint(
+    frames_dir: Path, tiny_models: dict[str, Path], tmp_path: Path
+) -> None:
+    """Fine-tuning on new frames: step 0 of the new run has the exported weights (lr 0 keeps them)."""
+    config = TrainConfig(
+        task="depth",
+        frames=frames_dir,
+        out=tmp_path / "ckpt",
+        run_dir=tmp_path / "run",
+        side=64,
+        widths=TINY,
+        steps=1,
+        batch=2,
+        lr=0.0,
+        warmup=1,
+        threads=1,
+        init_from=tiny_models["depth"],
+    )
+    tuned = load_checkpoint(train(config))
+    source = load_checkpoint(tiny_models["depth"])
+    for name, tensor in source.state_dict().items():
+        torch.testing.assert_close(tuned.state_dict()[name], tensor, msg=name)
+    with pytest.raises(ValueError, match="another shape"):
+        train(TrainConfig(**{**config.__dict__, "widths": (4, 4, 4, 4, 8), "run_dir": tmp_path / "other"}))
+
+
 def test_harness_frames_follow_the_documented_layout(frames_dir: Path):
     meta = json.loads((frames_dir / "meta.json").read_text())
     assert meta["camera"] == {"width": 64, "height": 64, "hfov_deg": 90.0}

@@ -122,6 +122,16 @@ def test_alfred_valid_seen_gives_one_example_per_annotation_and_style(shared_dat
     assert first.task_type == "look_at_obj_in_light"
 
 
+@pytest.mark.data
+def test_the_step_by_step_style_can_be_capped_per_trajectory(shared_data_dir: Path) -> None:
+    trajectories = list(read_jsonl_gz(shared_data_dir / "alfred" / "valid_seen.jsonl.gz"))[:20]
+    examples = alfred_examples(trajectories, load_ontology(), high_descs_per_trajectory=1)
+    annotations = sum(len(t["turk_annotations"]["anns"]) for t in trajectories)
+    counts = Counter(e.origin for e in examples)
+    assert counts == {"alfred:task_desc": annotations, "alfred:high_descs": len(trajectories)}
+    assert all(e.example_id.split(":")[1] == "0" for e in examples if e.origin == "alfred:high_descs")
+
+
 def test_the_handwritten_dialogues_cover_the_twelve_teach_tasks_with_valid_plans() -> None:
     examples = handwritten_examples(HANDWRITTEN, load_ontology())
     assert len(examples) == 30
