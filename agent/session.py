@@ -44,7 +44,7 @@ from agent.executor import (
     infer_success,
     instance_colour,
 )
-from agent.executor.config import STAND_CLEARANCE_M
+from agent.executor.config import DEFAULT_EXPLORER, STAND_CLEARANCE_M, ExplorerName
 from agent.geometry import Camera, Pose, depth_to_points, track_pose
 from agent.mapping import MapConfig, SemanticMap, render_map_png
 from agent.navigation import make_navigator
@@ -190,6 +190,7 @@ class AgentSession:
     last_target: str | None = None
     trace: Trace = field(default_factory=Trace, repr=False)
     executor_size: int | None = None  # bytes, last measured by ``_executor_size``
+    explorer: ExplorerName = DEFAULT_EXPLORER  # how the search explores for an unmapped target
     success_config: SuccessConfig = field(default_factory=SuccessConfig)
 
     @classmethod
@@ -202,6 +203,7 @@ class AgentSession:
         perception: PerceptionName,
         navigator: NavigatorName,
         planner: Planner,
+        explorer: ExplorerName = DEFAULT_EXPLORER,
         seed: int = 0,
         instruction: str | None = None,
         dialogue: Sequence[DialogueTurn] = (),
@@ -237,6 +239,7 @@ class AgentSession:
                 look_step_deg=look_step,
                 max_steps=limits.max_steps,
                 max_failed_actions=limits.max_failed_actions,
+                explorer=explorer,
             ),
         )
         started = now or datetime.now(UTC)
@@ -250,6 +253,7 @@ class AgentSession:
             seed=seed,
             instruction=instruction,
             dialogue=list(dialogue),
+            explorer=explorer,
             history_subgoals=tuple(history_subgoals),
             plan=list(outcome.plan),
             plan_source=outcome.source,

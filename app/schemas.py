@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, JsonValue, model_validator
 
+from agent.executor.config import DEFAULT_EXPLORER, ExplorerName
 from agent.planning import PlanSource, Speaker
 from agent.session import Mode, NavigatorName, PerceptionName, PlannerName
 from symbolic.thor import CAMERA_HEIGHT_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, TEACH_DRIVER_ACTIONS
@@ -235,6 +236,12 @@ class SessionCreate(RequestModel):
         description="fmm: fast marching (JARVIS); vin: value iteration (HLSM).",
         examples=["fmm"],
     )
+    explorer: ExplorerName = Field(
+        default=DEFAULT_EXPLORER,
+        description="How the agent explores while its target is not in the map: frontier (HLSM's frontier "
+        "exploration) or goal_transformer (JARVIS's learned Goal Transformer, reads the RGB frames).",
+        examples=[DEFAULT_EXPLORER],
+    )
     subgoals: str | list[str] | list[SubgoalIn] | None = Field(
         default=None,
         description='Subgoals for the oracle planner: text ("Navigate Knife, Pickup Knife"), a list of '
@@ -365,6 +372,7 @@ class SessionPublic(ResponseModel):
     perception: PerceptionName = Field(description="Perception back-end.", examples=["oracle"])
     planner: str = Field(description="Planner in use.", examples=["oracle"])
     navigator: NavigatorName = Field(description="Navigator in use.", examples=["fmm"])
+    explorer: ExplorerName = Field(description="Explorer in use.", examples=[DEFAULT_EXPLORER])
     seed: int = Field(description="Seed of the session's random choices.", examples=[0])
     instruction: str | None = Field(description="ALFRED goal text (mode instruction).", examples=[None])
     plan: PlanOut = Field(

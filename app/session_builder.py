@@ -249,6 +249,7 @@ def build_session(
             perception=body.perception,
             navigator=body.navigator,
             planner=planner,
+            explorer=body.explorer,
             seed=body.seed,
             instruction=body.instruction,
             dialogue=[DialogueTurn(turn.normalized_speaker(), turn.text) for turn in body.dialogue],

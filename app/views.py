@@ -78,6 +78,7 @@ def session_public(session: AgentSession) -> SessionPublic:
         perception=session.perception,
         planner=session.planner.name,
         navigator=session.navigator,
+        explorer=session.explorer,
         seed=session.seed,
         instruction=session.instruction,
         plan=plan_out(session),

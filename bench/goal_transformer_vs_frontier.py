@@ -1,15 +1,21 @@
-"""Goal transformer vs frontier exploration on the same search episodes of unseen worlds.
+"""Goal transformer vs frontier exploration: on the same search episodes, and inside the whole agent.
 
 The issue: the JARVIS seed's Goal Transformer explores when the target is not in the map; compare it with
 HLSM's frontier exploration on the same episodes (steps to first sight of the target, success rate) and
-make the better one the default. Each episode is a valid_unseen search phase from
+make the better one the default (``agent.executor.config.DEFAULT_EXPLORER``). Two comparisons:
+
+1. Search phases. Each episode is a valid_unseen search phase from
 ``harness.perception_data.search_episodes`` (a start pose from which the target is out of view; the
 expert's shortest search is reported for scale). Both explorers drive the agent's own semantic map with
 oracle perception (so only the exploration differs), the simulator executes their actions, and the episode
 succeeds when the target comes into view (the expert's sighting rule) within ``--max-steps`` actions.
+2. Whole episodes (``--tfd N``): the agent service on the first N generated valid_unseen TfD games with
+the expert's subgoals and oracle perception, once per explorer (the session's ``explorer`` option); the
+explorer only acts while a target is unmapped, between the agent's look-around and its container search,
+so this is what the choice is worth to a user. Task SR decides the default; search success breaks ties.
 
-Run: ``.venv/bin/python -m bench.goal_transformer_vs_frontier [--episodes 30]``; writes
-``bench/results/goal_transformer_vs_frontier.json``.
+Run: ``.venv/bin/python -m bench.goal_transformer_vs_frontier [--episodes 30] [--tfd 60] [--workers 2]``;
+writes ``bench/results/goal_transformer_vs_frontier.json``.
 """
 
 from __future__ import annotations
@@ -30,8 +36,11 @@ from agent.navigation.base import NavGrids
 from agent.navigation.exploration import FrontierExplorer
 from agent.perception import OraclePerception
 from agent.perception.base import Observation
+from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.camera import CameraSpec
+from harness.evaluate import EvalConfig, evaluate
 from harness.perception_data import SearchConfig, SightingCheck, search_episodes
+from harness.runner import DEFAULT_CAMERA, ExplorerName, service_url
 from harness.simulator import Simulator
 from harness.world import World
 from symbolic.thor import TEACH_HFOV_DEG
@@ -39,7 +48,7 @@ from symbolic.thor import TEACH_HFOV_DEG
 RESULTS = Path(__file__).resolve().parent / "results" / "goal_transformer_vs_frontier.json"
 SEED = 7
 SIDE = 300
-EXPLORERS = ("frontier", "goal_transformer")
+EXPLORERS: tuple[ExplorerName, ...] = ("frontier", "goal_transformer")
 
 
 def run_search(
@@ -111,6 +120,26 @@ def _rank(summary: dict[str, Any]) -> tuple[float, float]:
     return summary["success_rate"], -(steps if steps is not None else float("inf"))
 
 
+def whole_episodes(n: int, workers: int, runs: Path) -> dict[str, Any]:
+    """Task SR of the agent with each explorer on the first n generated valid_unseen TfD games."""
+    commit = current_commit()
+    results: dict[str, Any] = {}
+    with service_url(None, None, start=True) as url:
+        for name in EXPLORERS:
+            config = EvalConfig(
+                benchmark="tfd",
+                split="valid_unseen",
+                n=n,
+                camera_side=DEFAULT_CAMERA.width,
+                hfov_deg=DEFAULT_CAMERA.hfov_deg,
+                explorer=name,
+            )
+            summary = level_summary(evaluate(config, runs_for_commit(runs / name, commit), url, workers))
+            results[name] = {k: summary[k] for k in ("n", "sr", "gc", "mean_steps", "per_task_sr")}
+    results["commit"] = commit
+    return results
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         prog="python -m bench.goal_transformer_vs_frontier", description=__doc__.splitlines()[0]
@@ -118,6 +147,9 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--max-steps", type=int, default=100)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--tfd", type=int, default=0, help="also run this many TfD games per explorer")
+    parser.add_argument("--workers", type=int, default=2, help="episodes in parallel for --tfd")
+    parser.add_argument("--runs", type=Path, default=Path("runs/bench/explorers"), help="--tfd run folders")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     rows = []
@@ -142,7 +174,13 @@ def main() -> None:
         **{name: summarize(rows, name) for name in EXPLORERS},
         "rows": rows,
     }
-    result["better"] = max(EXPLORERS, key=lambda name: _rank(result[name]))
+    searches = {name: _rank(result[name]) for name in EXPLORERS}
+    if args.tfd:
+        tasks = whole_episodes(args.tfd, args.workers, args.runs)
+        result["tfd_oracle_subgoals"] = tasks
+        result["better"] = max(EXPLORERS, key=lambda name: (tasks[name]["sr"], *searches[name]))
+    else:
+        result["better"] = max(EXPLORERS, key=lambda name: searches[name])
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     RESULTS.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2))

@@ -58,6 +58,7 @@ from harness.metrics import EpisodeOutcome, aggregate, episode_metrics
 from harness.runner import (
     EpisodeRun,
     EpisodeUnavailable,
+    ExplorerName,
     RunnerOptions,
     generated_episode,
     generated_teach_instance,
@@ -98,6 +99,7 @@ class EvalConfig:
     planner: Literal["oracle", "model"] = "oracle"
     perception: Literal["oracle", "learned"] = "oracle"
     navigator: Literal["fmm", "vin"] = "fmm"
+    explorer: ExplorerName | None = None  # None: the service's default
     tasks: tuple[str, ...] = BENCHMARK_TASKS
     data: str | None = None  # folder of TEACh-format instances, instead of generating them
     info: InfoLevel = "full"  # TATC: what the commander may tell (the JARVIS seed's Table 2)
@@ -129,7 +131,11 @@ class EvalConfig:
 
     def options(self) -> RunnerOptions:
         return RunnerOptions(
-            camera=self.camera, planner=self.planner, perception=self.perception, navigator=self.navigator
+            camera=self.camera,
+            planner=self.planner,
+            perception=self.perception,
+            navigator=self.navigator,
+            explorer=self.explorer,
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -414,6 +420,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--planner", default="oracle", choices=("oracle", "model"))
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
+    parser.add_argument("--explorer", choices=get_args(ExplorerName), help="default: the service's")
     parser.add_argument("--info", default="full", choices=get_args(InfoLevel), help="TATC commander's info")
     parser.add_argument(
         "--protocol",
@@ -444,6 +451,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             planner=args.planner,
             perception=args.perception,
             navigator=args.navigator,
+            explorer=args.explorer,
             tasks=tuple(args.tasks),
             data=str(args.data.resolve()) if args.data else None,
             info=args.info,

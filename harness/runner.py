@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import httpx
 import numpy as np
@@ -62,6 +62,7 @@ DEFAULT_CAMERA = CameraSpec(300, 300, TEACH_HFOV_DEG)
 Perception = Literal["oracle", "learned"]
 PlannerName = Literal["oracle", "model"]
 NavigatorName = Literal["fmm", "vin"]
+ExplorerName = Literal["frontier", "goal_transformer"]
 EndReason = Literal["stop", "step_limit", "failure_limit", "error"]
 SubgoalStatus = Literal["done", "failed", "replanned", "not reached"]
 
@@ -82,6 +83,7 @@ class RunnerOptions:
     perception: Perception = "oracle"  # oracle: depth + instance segmentation with each frame
     planner: PlannerName = "oracle"  # oracle: the episode's future subgoals are given to the session
     navigator: NavigatorName = "fmm"
+    explorer: ExplorerName | None = None  # None: the service's default explorer
     give_pose: bool = True  # world pose with each frame, as AI2-THOR's metadata provides it
     give_success: bool = False  # TEACh never tells the driver whether its last action succeeded
     noise: bool = True  # renderer light/sensor noise, a fresh draw every step
@@ -263,6 +265,8 @@ def session_payload(episode: Episode, options: RunnerOptions) -> dict[str, Any]:
         "navigator": options.navigator,
         "seed": options.seed,
     }
+    if options.explorer is not None:
+        payload["explorer"] = options.explorer
     if episode.benchmark == "alfred":
         payload["instruction"] = episode.instruction
     else:
@@ -682,6 +686,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--planner", default="oracle", choices=("oracle", "model"))
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
+    parser.add_argument("--explorer", choices=get_args(ExplorerName), help="default: the service's")
     parser.add_argument("--no-pose", action="store_true", help="do not send the world pose")
     parser.add_argument(
         "--give-success", action="store_true", help="tell the agent if its last action worked"
@@ -712,6 +717,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         perception=args.perception,
         planner=args.planner,
         navigator=args.navigator,
+        explorer=args.explorer,
         give_pose=not args.no_pose,
         give_success=args.give_success,
         noise=not args.no_noise,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 from agent.executor.clicks import ClickConfig
 from agent.executor.looks import StainConfig
@@ -41,6 +42,15 @@ class SearchConfig:
     checked_radius_m: float = 0.3  # metres: a container part this close to a checked one is that one
 
 
+ExplorerName = Literal["frontier", "goal_transformer"]
+"""How the search explores while the target is not in the map: HLSM's frontier explorer, or the JARVIS
+seed's goal transformer (``agent.exploration_gt``); ``bench/goal_transformer_vs_frontier.py``
+compares them."""
+EXPLORERS: tuple[ExplorerName, ...] = ("frontier", "goal_transformer")
+DEFAULT_EXPLORER: ExplorerName = "frontier"
+"""The explorer sessions get unless they ask: the better one in ``bench/results/explorer_comparison.json``."""
+
+
 @dataclass(frozen=True)
 class ExecutorConfig:
     """Limits and retry budgets of the executor (counts are per subgoal unless said otherwise)."""
@@ -76,3 +86,4 @@ class ExecutorConfig:
     done_radius_m: float = 0.3  # metres: an instance this close to a finished one is that one
     click: ClickConfig = field(default_factory=ClickConfig)
     search: SearchConfig = field(default_factory=SearchConfig)
+    explorer: ExplorerName = DEFAULT_EXPLORER  # see ExplorerName

@@ -11,6 +11,7 @@ it) are opened nearest first, looked into, and closed again when the target is n
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -18,10 +19,11 @@ import numpy as np
 from agent.executor import sightings
 from agent.executor.approach import Approach
 from agent.executor.clicks import Click, pixel_points
-from agent.executor.config import SearchConfig
+from agent.executor.config import ExplorerName, SearchConfig
 from agent.executor.mapview import MapCluster, SessionMapView
 from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState, in_box
 from agent.executor.step import Act, GiveUp, Outcome
+from agent.exploration_gt import GoalTransformerExplorer
 from agent.navigation.base import NavGoal, Navigator
 from agent.navigation.exploration import ExploreDecision, FrontierExplorer
 from symbolic.ontology import Ontology
@@ -223,15 +225,42 @@ def surface_candidates(
 
 
 def explore_step(
-    search: SearchState, view: SessionMapView, navigator: Navigator, rng: np.random.Generator
+    search: SearchState,
+    view: SessionMapView,
+    navigator: Navigator,
+    rng: np.random.Generator,
+    explorer: ExplorerName = "frontier",
+    *,
+    rgb: np.ndarray | None = None,
+    future: Sequence[tuple[str, str]] = (),
+    last_success: bool | None = None,
 ) -> ExploreDecision | None:
-    """The next look-around turn or frontier move, or None (and ``search.exhausted``) when none is left.
+    """The next look-around turn or exploring move, or None (and ``search.exhausted``) when none is left.
 
-    The explorer is made on first use, so each subgoal's search starts with HLSM's 360° look-around.
+    The explorer is made on first use. The frontier explorer starts each subgoal's search with HLSM's 360°
+    look-around and runs out when no frontier is left; the goal transformer (JARVIS Algorithm 3, line 79)
+    reads this step's ``rgb`` and the ``future`` subgoals (the current one first) and never runs out (the
+    search's step budget ends it). Without a frame it cannot see, so the frontier explorer stands in.
     """
     if search.explorer is None:
+        if explorer == "goal_transformer" and rgb is not None:
+            search.explorer = GoalTransformerExplorer(rng)
+        else:
+            search.explorer = FrontierExplorer(navigator, rng)
+    if isinstance(search.explorer, GoalTransformerExplorer) and rgb is not None:
+        decision = search.explorer.next_action(
+            view.grids(),
+            view.map.frame,
+            view.pose,
+            rgb=rgb,
+            subgoals=future,
+            last_action_success=last_success,
+        )
+    elif isinstance(search.explorer, GoalTransformerExplorer):
         search.explorer = FrontierExplorer(navigator, rng)
-    decision = search.explorer.next_action(view.grids(), view.map.frame, view.pose)
+        decision = search.explorer.next_action(view.grids(), view.map.frame, view.pose)
+    else:
+        decision = search.explorer.next_action(view.grids(), view.map.frame, view.pose)
     if decision.action is None:
         search.exhausted = True
         return None
@@ -277,7 +306,16 @@ class ContainerSearch(Approach):
                     self._look_toward(cfg.explore_horizon_deg),
                     f"search({obj}): look {direction} to {cfg.explore_horizon_deg:g}° to explore",
                 )
-            decision = explore_step(search, self.view, self.navigator, self.rng)
+            decision = explore_step(
+                search,
+                self.view,
+                self.navigator,
+                self.rng,
+                self.cfg.explorer,
+                rgb=self.inputs.observation.rgb,
+                future=[(s.action.value, s.obj) for s in self.plan[self.pointer :]],
+                last_success=self.inputs.last_success,
+            )
             if decision is not None:
                 assert decision.action is not None
                 where = ""

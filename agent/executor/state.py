@@ -19,6 +19,7 @@ import numpy as np
 from agent.executor.clicks import Click
 from agent.executor.looks import Looks
 from agent.executor.mapview import IgnoredSpot
+from agent.exploration_gt import GoalTransformerExplorer
 from agent.geometry import Pose
 from agent.navigation.exploration import FrontierExplorer
 from symbolic.belief import BeliefState
@@ -144,7 +145,7 @@ class ContainerVisit:
 class SearchState:
     """How far the search for an unmapped target has got (search.py)."""
 
-    explorer: FrontierExplorer | None = None
+    explorer: FrontierExplorer | GoalTransformerExplorer | None = None
     explore_steps: int = 0
     exhausted: bool = False  # frontier exploration has nothing left to show
     visit: ContainerVisit | None = None

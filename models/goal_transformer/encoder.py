@@ -9,6 +9,7 @@ feature per frame is what the goal transformer sees, so features can be computed
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -41,7 +42,8 @@ class FrameEncoder(nn.Module):
             f"rgb must be uint8 [N, H, W, 3], got {rgb.dtype} {rgb.shape}"
         )
         x = (rgb.permute(0, 3, 1, 2).float() - LITE_MEAN) / LITE_STD  # [N, 3, H, W]
-        features = self.backbone.extract_features(x)  # [N, 1280, h, w]
+        extract: Callable[[torch.Tensor], torch.Tensor] = self.backbone.extract_features  # type: ignore[assignment]
+        features = extract(x)  # [N, 1280, h, w]
         return features.mean(dim=(2, 3))
 
     def encode(self, frames: np.ndarray, batch: int = 16) -> np.ndarray:

@@ -59,7 +59,8 @@ class GoalTransformerConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> GoalTransformerConfig:
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+        return cls(**values)
 
 
 class GoalTransformer(nn.Module):

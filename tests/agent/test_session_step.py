@@ -57,6 +57,31 @@ def test_state_stays_within_budget_and_a_snapshot_resumes_with_the_same_decision
     assert restored.step_once(upcoming) == session.step_once(upcoming)
 
 
+def test_a_goal_transformer_session_explores_with_the_model_and_resumes_from_a_snapshot() -> None:
+    """No kettle in this kitchen: the search explores with the learned explorer, which reads the frames;
+    its history survives a snapshot (the shared model does not travel in it)."""
+    from agent.exploration_gt import GoalTransformerExplorer
+
+    sim = simulator(kitchen())
+    assert not sim.world.of_type("Kettle")
+    session = _session("Navigate Kettle, Pickup Kettle", explorer="goal_transformer")
+    reasons = []
+    for step in range(40):
+        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
+        reasons.append(decision.reason)
+        if decision.reason == "search(Kettle): explore":
+            break
+        execute(sim, decision.action, decision.x, decision.y)
+    assert reasons[-1] == "search(Kettle): explore", reasons
+    attempt = session.executor.state.attempt
+    assert attempt is not None and isinstance(attempt.search.explorer, GoalTransformerExplorer)
+    execute(sim, decision.action, decision.x, decision.y)
+    restored = AgentSession.from_bytes(session.to_bytes())
+    upcoming = observation(sim.observe(noise_seed=77), sim.world.agent)
+    assert restored.explorer == "goal_transformer"
+    assert restored.step_once(upcoming) == session.step_once(upcoming)
+
+
 def test_an_observation_perception_cannot_use_changes_nothing() -> None:
     sim = simulator(kitchen())
     session = _session("Navigate Apple")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from fastapi.testclient import TestClient
 
+from agent.executor.config import DEFAULT_EXPLORER
 from symbolic.thor import CAMERA_HEIGHT_M
 
 ACCEPTANCE = {"mode": "tfd", "planner": "oracle", "subgoals": "Slice Bread"}
@@ -130,3 +131,17 @@ def test_defaults_oracle_planner_fmm_navigator_and_mode_cameras(client: TestClie
     assert teach["camera"] == {"width": 900, "height": 900, "hfov_deg": 90.0, "height_m": CAMERA_HEIGHT_M}
     assert alfred["camera"] == {"width": 300, "height": 300, "hfov_deg": 60.0, "height_m": CAMERA_HEIGHT_M}
     assert alfred["instruction"] == "Open the fridge."
+    assert teach["explorer"] == DEFAULT_EXPLORER
+
+
+def test_the_explorer_can_be_chosen_and_an_unknown_one_is_refused(client: TestClient) -> None:
+    chosen = client.post(
+        "/v1/sessions", json={"mode": "tfd", "subgoals": "Open Fridge", "explorer": "goal_transformer"}
+    )
+    assert chosen.status_code == 201
+    assert client.get(f"/v1/sessions/{chosen.json()['session_id']}").json()["explorer"] == "goal_transformer"
+    refused = client.post(
+        "/v1/sessions", json={"mode": "tfd", "subgoals": "Open Fridge", "explorer": "random"}
+    )
+    assert refused.status_code == 422 and refused.json()["error"] == "validation_error", refused.json()
+    assert "explorer" in refused.json()["detail"]
