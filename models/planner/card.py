@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from models.planner.modeling import PLANNER_META_FILE, read_planner_meta
+from models.planner.plan_vocab import PLAN_VOCAB_FILE
 
 CHECKPOINT_FILES: tuple[str, ...] = (
     "config.json",
@@ -24,6 +25,8 @@ CHECKPOINT_FILES: tuple[str, ...] = (
     PLANNER_META_FILE,
 )
 """What a default checkpoint holds besides its card and evaluation (never the optimizer state)."""
+OPTIONAL_FILES: tuple[str, ...] = (PLAN_VOCAB_FILE,)
+"""Copied when the run has them (a decoder that writes whole plan words)."""
 
 EVALUATION_FILE = "evaluation.json"
 MODEL_CARD_FILE = "MODEL_CARD.md"
@@ -97,7 +100,9 @@ def render_model_card(
         + (
             "byte-level BPE trained on the training set's inputs and targets, lower-cased"
             if meta.get("recipe") == "bart-scratch"
-            else "MiniLM's uncased WordPiece with the three marks added"
+            else "MiniLM's uncased WordPiece cut to its common pieces and the corpus's, with the three "
+            "marks added; the decoder writes whole plan words (`plan_vocab.json`: the nine actions and the "
+            "ontology's types) held to the action/type grammar in beam search"
         ),
         "",
         "## Data",
@@ -160,12 +165,15 @@ def export_checkpoint(
     if missing:
         raise FileNotFoundError(f"{final_dir} lacks {missing}; is it a finished run's final/ folder?")
     destination.mkdir(parents=True, exist_ok=True)
-    for name in CHECKPOINT_FILES:
+    files = [*CHECKPOINT_FILES, *(name for name in OPTIONAL_FILES if (final_dir / name).is_file())]
+    for name in OPTIONAL_FILES:
+        (destination / name).unlink(missing_ok=True)  # a previous default's vocabulary must not linger
+    for name in files:
         shutil.copyfile(final_dir / name, destination / name)
     shutil.copyfile(evaluation_path, destination / EVALUATION_FILE)
     evaluation = json.loads(evaluation_path.read_text(encoding="utf-8"))
     comparison = json.loads(comparison_path.read_text(encoding="utf-8")) if comparison_path else None
-    size = sum((destination / name).stat().st_size for name in CHECKPOINT_FILES)
+    size = sum((destination / name).stat().st_size for name in files)
     card = render_model_card(read_planner_meta(final_dir), evaluation, size, commands, comparison, notes)
     (destination / MODEL_CARD_FILE).write_text(card, encoding="utf-8")
     return size

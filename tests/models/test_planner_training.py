@@ -202,6 +202,16 @@ def test_a_planner_with_a_plan_vocabulary_writes_only_whole_subgoals(tmp_path: P
         assert len(prediction.subgoals) <= 19  # 39 plan tokens at most: the table holds 40 positions
         assert prediction.text.count(",") == max(len(prediction.subgoals) - 1, 0)
 
+    from models.planner.card import export_checkpoint
+
+    evaluation = tmp_path / "evaluation.json"
+    evaluation.write_text('{"num_beams": 4, "sets": []}', encoding="utf-8")
+    export_checkpoint(tmp_path / "run" / "final", tmp_path / "default", evaluation, ["train ..."])
+    exported = SubgoalGenerator.from_directory(tmp_path / "default", load_ontology())
+    assert exported.planner.plan_vocab == generator.planner.plan_vocab is not None
+    card = (tmp_path / "default" / "MODEL_CARD.md").read_text(encoding="utf-8")
+    assert "plan_vocab.json" in card
+
 
 @pytest.mark.slow
 @pytest.mark.data
