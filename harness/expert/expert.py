@@ -198,14 +198,15 @@ class _Episode:
         top_y: float | None,
         exclude: set[tuple[BodyState, float]],
         companion: tuple[str, World] | None = None,
+        quick: bool = False,
     ) -> View | None:
         """The cheapest verified view within the search budget; failing that, every candidate pose is tried
         (as the planner's look-ahead does before it calls an object seen), so an object that only shows
-        from a few far poses is not given up on. With a ``companion`` (``navigation.find_view``) only the
-        quick budget is spent: the caller falls back to a view of the object alone."""
+        from a few far poses is not given up on. ``quick`` (a preference the caller can drop: another
+        pose than this one, or one that serves the next interaction too) spends only the quick budget."""
         budgets = (
             (self.config.max_view_renders,)
-            if companion
+            if quick
             else (self.config.max_view_renders, THOROUGH_SIGHT_RENDERS)
         )
         for budget in budgets:
@@ -264,9 +265,9 @@ class _Episode:
             view = None
             exclude = tried | {self.here()} if walk and attempt == 0 else tried
             if companion is not None and attempt == 0:
-                view = self.find(target, self._top_y(subgoal), exclude, companion)
+                view = self.find(target, self._top_y(subgoal), exclude, companion, quick=True)
             if walk and attempt == 0:
-                view = view or self.find(target, self._top_y(subgoal), exclude)
+                view = view or self.find(target, self._top_y(subgoal), exclude, quick=True)
             view = view or self.find(target, self._top_y(subgoal), tried)
             if view is None:
                 return _Stuck(why, avoid=target)
