@@ -6,7 +6,8 @@ form. Sources:
   joined as a second input style, -> the subgoals of ``plan.low_actions`` by the seed's actions-to-subgoals
   rule (``subgoals_from_alfred_low_actions``).
 - TEACh-format instances (the real ones or those the harness writes): EDH ``dialog_history`` +
-  ``history_subgoals`` -> ``future_subgoals``; TfD the whole dialogue -> all subgoals (the seed's Eq. (2)).
+  ``history_subgoals`` -> ``future_subgoals``; TfD the whole dialogue -> all subgoals (the seed's Eq. (2));
+  TfD continued, the whole dialogue + the subgoals done so far -> the rest (how a session re-plans).
 - Hand-written dialogues (``tests/data/handwritten_dialogues.jsonl``) in words the generator never uses.
 
 Every plan is parsed through the ontology so targets use canonical type names; examples whose plan names
@@ -216,6 +217,59 @@ def teach_examples(
     return examples
 
 
+def teach_continuations(
+    root: Path, split: str, ontology: Ontology, report: BuildReport | None = None
+) -> list[PlannerExample]:
+    """TfD continued: the whole dialogue and the subgoals done so far -> what is left (nothing, at the end).
+
+    The agent re-plans a TfD session when its plan runs out or fails (the seed's Eq. (1) with the history
+    it has done); without these examples the model would never have seen a whole dialogue after <HIS>.
+    Histories are each EDH instance's cut of the same game (and the whole plan, whose future is empty);
+    a history that is not a prefix of the game's TfD plan is skipped.
+    """
+    report = report if report is not None else BuildReport()
+    tfd: dict[str, tuple[list[tuple[str, str]], list[Subgoal], str]] = {}
+    task_types: dict[str, str] = {}
+    for path in teach_instance_files(root, split, ("tfd",)):
+        try:
+            instance = json.loads(path.read_text(encoding="utf-8"))
+            game_id = str(instance.get("game_id") or path.stem.split(".")[0])
+            plan = parse_subgoals(instance.get("future_subgoals") or [], ontology)
+        except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
+            report.skip("teach:tfd_continuation", f"{path.name}: {error}")
+            continue
+        turns = [(str(speaker), str(text)) for speaker, text in instance.get("dialog_history", [])]
+        tfd[game_id] = (turns, plan, path.stem)
+        task_types[game_id] = teach_task_type(instance, root, split, game_id)
+    examples: list[PlannerExample] = []
+    for game_id, (turns, plan, stem) in tfd.items():
+        cuts: list[tuple[str, list[Subgoal]]] = [(f"{stem}.end", plan)]
+        for path in sorted((root / "edh_instances" / split).glob(f"{game_id}.edh*.json")):
+            try:
+                instance = json.loads(path.read_text(encoding="utf-8"))
+                history = parse_subgoals(instance.get("history_subgoals") or [], ontology)
+            except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
+                report.skip("teach:tfd_continuation", f"{path.name}: {error}")
+                continue
+            if history:
+                cuts.append((f"{stem}.{path.stem.split('.')[-1]}", history))
+        for suffix, history in cuts:
+            if plan[: len(history)] != history:
+                report.skip("teach:tfd_continuation", f"{suffix}: its history is not a prefix of the plan")
+                continue
+            examples.append(
+                PlannerExample(
+                    example_id=f"{suffix}.continued",
+                    source=format_planner_input(turns, history),
+                    target=format_subgoals(plan[len(history) :]),
+                    task_type=task_types[game_id],
+                    origin="teach:tfd_continuation",
+                )
+            )
+            report.kept["teach:tfd_continuation"] += 1
+    return examples
+
+
 def handwritten_examples(path: Path, ontology: Ontology) -> list[PlannerExample]:
     """Our own dialogues: ``{"id", "task", "dialogue": [[speaker, text]...], "history_subgoals",
     "future_subgoals"}`` per line; a plan outside the ontology is an error in the file, so it raises."""
@@ -318,7 +372,9 @@ def build_planner_datasets(
             for style in ALFRED_STYLES:
                 evaluation[f"alfred_valid_seen_{style}"] = [e for e in seen if e.origin == f"alfred:{style}"]
     if teach_root is not None:
-        for example in teach_examples(teach_root, "train", ontology, report=report):
+        teach_train = teach_examples(teach_root, "train", ontology, report=report)
+        teach_train += teach_continuations(teach_root, "train", ontology, report=report)
+        for example in teach_train:
             if is_dev(example.example_id.split(".")[0]):
                 dev.append(example)
             else:

@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 
 from models.planner.data import (
+    BuildReport,
     DatasetFiles,
     alfred_examples,
     build_planner_datasets,
@@ -18,6 +19,7 @@ from models.planner.data import (
     is_dev,
     read_examples,
     read_jsonl_gz,
+    teach_continuations,
     teach_instance_example,
 )
 from symbolic.data_dir import REPO_ROOT
@@ -105,6 +107,28 @@ def test_teach_folders_split_train_dev_and_evaluation_and_skip_broken_files(tmp_
     }
     assert report.skipped["teach"] == 1
     assert "partial.edh0.json" in report.reasons[0]
+
+
+def test_a_tfd_game_continues_from_each_edh_cut_and_ends_with_nothing_left(tmp_path: Path) -> None:
+    root = tmp_path / "teach"
+    for kind in ("edh", "tfd"):
+        (root / f"{kind}_instances" / "train").mkdir(parents=True)
+    plan = ["Navigate", "Mug", "Pickup", "Mug", "Navigate", "CoffeeMachine", "Place", "CoffeeMachine"]
+    tfd = {"game_id": "abc_0001", "dialog_history": [["Commander", "make coffee"]], "future_subgoals": plan}
+    (root / "tfd_instances" / "train" / "abc_0001.tfd0.json").write_text(json.dumps(tfd))
+    (root / "edh_instances" / "train" / "abc_0001.edh2.json").write_text(json.dumps(edh_instance()))
+    stray = {**edh_instance(), "history_subgoals": ["Navigate", "Cup", "Pickup", "Cup"]}
+    (root / "edh_instances" / "train" / "abc_0001.edh3.json").write_text(json.dumps(stray))
+    report = BuildReport()
+    examples = {e.example_id: e for e in teach_continuations(root, "train", load_ontology(), report)}
+    assert set(examples) == {"abc_0001.tfd0.end.continued", "abc_0001.tfd0.edh2.continued"}
+    middle = examples["abc_0001.tfd0.edh2.continued"]
+    assert middle.source == "<COM> make coffee <HIS> Pickup Mug"
+    assert middle.target == "Navigate CoffeeMachine, Place CoffeeMachine"
+    assert middle.origin == "teach:tfd_continuation"
+    end = examples["abc_0001.tfd0.end.continued"]
+    assert end.target == "" and end.source.endswith("<HIS> Pickup Mug, Place CoffeeMachine")
+    assert report.skipped["teach:tfd_continuation"] == 1  # the Cup history is not this game's
 
 
 @pytest.mark.data
