@@ -101,10 +101,11 @@ EXECUTOR_SIZE_EVERY = 20
 
 @dataclass(frozen=True)
 class SessionLimits:
-    """TEACh's episode limits, from the service settings."""
+    """TEACh's episode limits, from the service settings, and how often a session re-plans on its own."""
 
     max_steps: int = MAX_STEPS  # actions per episode
     max_failed_actions: int = MAX_FAILED_ACTIONS  # failed actions per episode
+    max_progress_replans: int = 4  # re-plans after the plan ran out or a subgoal failed (``replan_reason``)
 
 
 @dataclass(frozen=True)
@@ -191,6 +192,7 @@ class AgentSession:
     trace: Trace = field(default_factory=Trace, repr=False)
     executor_size: int | None = None  # bytes, last measured by ``_executor_size``
     explorer: ExplorerName = DEFAULT_EXPLORER  # how the search explores for an unmapped target
+    progress_replans: int = 0  # re-plans made because the plan ran out or failed
     success_config: SuccessConfig = field(default_factory=SuccessConfig)
 
     @classmethod
@@ -314,10 +316,11 @@ class AgentSession:
         return format_subgoals(self.plan)
 
     def _planning_context(self, dialogue: Sequence[DialogueTurn]) -> PlanningContext:
-        """A re-plan repairs from what the agent believes now (it may hold what the last plan picked up)."""
+        """A re-plan reads the history plus what this session has carried out since (the seed's Eq. (1)
+        history), and repairs from what the agent believes now (it may hold what the last plan picked up)."""
         return PlanningContext(
             dialogue=tuple(dialogue),
-            history_subgoals=self.history_subgoals,
+            history_subgoals=(*self.history_subgoals, *self.executor.state.completed),
             instruction=self.instruction,
             given_subgoals=self.given_subgoals,
             belief=self.executor.state.belief,
@@ -388,6 +391,13 @@ class AgentSession:
         )
         inputs = StepInputs(index, pose, view, obs, frame_digest, success.success)
         decision = self.executor.decide(inputs, self.plan, self.pointer)
+        replanned: list[str] = []
+        why = self.replan_reason(decision)
+        if why is not None:
+            self._apply(decision)
+            if self._replan_from_progress(why, replanned):
+                self.executor.state.pending = None  # the first answer is never sent: nothing of it is pending
+                decision = self.executor.decide(inputs, self.plan, self.pointer)
         decided = time.perf_counter()
         self._apply(decision)
         self.pose = pose
@@ -419,7 +429,7 @@ class AgentSession:
                 x=result.x,
                 y=result.y,
                 reason=result.reason,
-                events=list(decision.events),
+                events=[*replanned, *decision.events],
                 timing_ms={k: round(v, 3) for k, v in timing.items()},
                 state_bytes=self.state_bytes(executor_bytes=self._executor_size(index)),
             )
@@ -484,6 +494,37 @@ class AgentSession:
         belief = self.executor.state.belief
         if obs.held_object is not None and belief.held != obs.held_object:
             belief.held = obs.held_object
+
+    def replan_reason(self, decision: Decision) -> str | None:
+        """Why the language planner should plan again now, or None (issue #5: re-plan when the plan is
+        exhausted or failed). Only a planner that reads dialogue re-plans (the oracle's plan is the plan),
+        never in TATC (the follower asks its commander instead) nor after a commander's explicit command,
+        and at most ``max_progress_replans`` times, so a model that keeps proposing what fails cannot
+        loop."""
+        if not self.planner.replans_on_dialogue or self.mode == "tatc" or self.plan_source == "commander":
+            return None  # a commander's explicit instruction is not second-guessed
+        if self.progress_replans >= self.limits.max_progress_replans:
+            return None
+        if decision.plan_done:
+            return "the plan ran out"
+        if any(event.rule == "subgoal-failed" for event in decision.repairs) and not decision.stop:
+            return "a subgoal failed"
+        return None
+
+    def _replan_from_progress(self, why: str, events: list[str]) -> bool:
+        """Plan from the dialogue and everything done so far; adopt the plan unless it is empty (the model
+        says nothing is left). Notes what happened in ``events`` (the step's trace)."""
+        self.progress_replans += 1
+        outcome = self.planner.plan(self._planning_context(self.dialogue))
+        if not outcome.plan:
+            events.append(f"re-planned because {why}: nothing left to do")
+            return False
+        self.plan = list(outcome.plan)
+        self.plan_source = outcome.source
+        self.repair_log.extend(outcome.repair_log)
+        self.pointer = 0
+        events.append(f"re-planned because {why}: {format_subgoals(self.plan)}")
+        return True
 
     def _ensure_map(self, pose: Pose) -> SemanticMap:
         if self.semantic_map is None:

@@ -360,6 +360,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             memory.instance[obj] = instance_id
 
         self.state.belief = belief.apply(subgoal, self.onto)
+        self.state.completed.append(subgoal)
         self.state.attempt = None
         self.pointer += 1
         self.events.append(f"done {subgoal}: {reason}")

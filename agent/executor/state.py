@@ -207,6 +207,9 @@ class ExecutorState:
     containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
     failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
     given_up: int = 0  # subgoals abandoned to repair
+    completed: list[Subgoal] = field(
+        default_factory=list
+    )  # subgoals carried out, in order (a re-plan's history)
     last_failed_action: str | None = None  # the previous action, when it failed (Alg. 3 line 80)
     blocked_turns: list[tuple[float, float, float, str]] = field(default_factory=list)
     """(x, z, yaw, turn) of turns that failed: holding something long, the way it would swing is blocked."""

@@ -15,6 +15,9 @@ from agent.perception import ObservationError
 from agent.planning import make_planner
 from agent.session import AgentSession, Mode, SessionLimits
 from symbolic.ontology import load_ontology
+from symbolic.subgoals import Subgoal, SubgoalAction
+
+A = SubgoalAction
 
 CAMERA = Camera(300, 300, 90.0)
 STATE_BUDGET_BYTES = 2_000_000  # DESIGN.md §8
@@ -80,6 +83,54 @@ def test_a_goal_transformer_session_explores_with_the_model_and_resumes_from_a_s
     upcoming = observation(sim.observe(noise_seed=77), sim.world.agent)
     assert restored.explorer == "goal_transformer"
     assert restored.step_once(upcoming) == session.step_once(upcoming)
+
+
+def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs_out() -> None:
+    """Issue #5: the language planner re-plans when the plan is exhausted, reading the dialogue and every
+    subgoal carried out so far; whatever it answers, it is asked a bounded number of times."""
+    import json
+
+    from agent.planning import DialogueTurn
+
+    ontology = load_ontology()
+    sim = simulator(kitchen())
+    session = AgentSession.start(
+        "s",
+        mode="tfd",
+        camera=CAMERA,
+        perception="oracle",
+        navigator="fmm",
+        planner=make_planner("model", ontology),
+        dialogue=[DialogueTurn("Commander", "hi, please pick up the apple")],
+        ontology=ontology,
+    )
+    assert session.plan_source == "model"
+    # a plan that runs out soon, whatever the model first made of the request:
+    session.plan = [Subgoal(A.NAVIGATE, "Apple"), Subgoal(A.PICKUP, "Apple")]
+    for step in range(250):
+        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
+        if decision.done:
+            break
+        execute(sim, decision.action, decision.x, decision.y)
+    events = [
+        e for line in session.trace.lines() for e in json.loads(line)["events"] if e.startswith("re-pl")
+    ]
+    assert events and events[0].startswith("re-planned because the plan ran out"), events
+    assert 1 <= session.progress_replans <= session.limits.max_progress_replans
+    done = session.executor.state.completed
+    assert Subgoal(A.PICKUP, "Apple") in done
+    assert session._planning_context(session.dialogue).history_subgoals == tuple(done)
+
+
+def test_an_oracle_planned_session_never_plans_again_on_its_own() -> None:
+    sim = simulator(kitchen())
+    session = _session("Navigate Apple, Pickup Apple")
+    for step in range(200):
+        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
+        if decision.done:
+            break
+        execute(sim, decision.action, decision.x, decision.y)
+    assert decision.done and session.progress_replans == 0
 
 
 def test_an_observation_perception_cannot_use_changes_nothing() -> None:
