@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import random
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -37,10 +38,10 @@ from harness.render import Frame, Renderer
 from harness.splits import Split, world_seed
 from harness.tasks.sampling import parameter_space, task_needs
 from harness.tasks.teach_definitions import BENCHMARK_TASKS, make_task_instance
-from harness.world import RoomKind, World
+from harness.world import RoomKind, World, WorldObject
 from harness.worldgen import WorldGenConfig, WorldGenError, generate_world
 from symbolic.ontology import Ontology, load_ontology
-from symbolic.thor import GRID_STEP_M, TEACH_HFOV_DEG
+from symbolic.thor import CAMERA_HEIGHT_M, GRID_STEP_M, TEACH_HFOV_DEG
 
 ROOM_KINDS: tuple[RoomKind, ...] = ("kitchen", "living_room", "bedroom", "bathroom")
 HORIZONS_DEG: tuple[int, ...] = (-30, 0, 30, 60)
@@ -135,6 +136,41 @@ def write_frame(out: Path, name: str, frame: Frame) -> None:
     (out / "instances" / f"{name}.json").write_text(json.dumps(legend))
 
 
+FOCUS_DISTANCE_M = (0.5, 1.5)
+"""Range of floor distances from an object at which a focused frame is taken (an agent about to handle it)."""
+
+
+def focused_pose(
+    world: World, cells: Sequence[tuple[int, int]], rng: random.Random, ontology: Ontology
+) -> tuple[tuple[int, int], int, float] | None:
+    """A pose looking at a random small object from near, as an agent sees what it is about to pick up or
+    put something on: one object type drawn uniformly (so rare types are as common as mugs), one instance,
+    a reachable cell 0.5-1.5 m away, the yaw of the four nearest its direction and the look step nearest
+    its elevation. None when the world has no small object with such a cell."""
+    by_type: dict[str, list[WorldObject]] = {}
+    for obj in world.objects.values():
+        if ontology.get(obj.object_type).pickupable and obj.parent_id is not None:
+            by_type.setdefault(obj.object_type, []).append(obj)
+    if not by_type:
+        return None
+    obj = rng.choice(by_type[rng.choice(sorted(by_type))])
+    x, y, z = obj.center
+    near = []
+    for cell in cells:
+        cx, cz = world.room.cell_center(*cell)
+        if FOCUS_DISTANCE_M[0] <= math.hypot(x - cx, z - cz) <= FOCUS_DISTANCE_M[1]:
+            near.append(cell)
+    if not near:
+        return None
+    cell = rng.choice(near)
+    cx, cz = world.room.cell_center(*cell)
+    bearing = math.degrees(math.atan2(x - cx, z - cz))  # yaw 0 faces +z, 90 faces +x
+    yaw = int(round(bearing / 90.0)) % 4 * 90
+    below = math.degrees(math.atan2(CAMERA_HEIGHT_M - y, math.hypot(x - cx, z - cz)))  # positive: look down
+    horizon = min(HORIZONS_DEG, key=lambda h: abs(h - below))
+    return cell, yaw, float(horizon)
+
+
 def render_frames(
     out: Path,
     split: Split,
@@ -143,8 +179,13 @@ def render_frames(
     camera: CameraSpec,
     seed: int,
     randomization: StateRandomization = StateRandomization(),
+    focus_share: float = 0.0,
 ) -> int:
-    """Write ``per_world`` frames from each of ``worlds`` worlds of ``split``; returns frames written."""
+    """Write ``per_world`` frames from each of ``worlds`` worlds of ``split``; returns frames written.
+
+    Frames are taken from random reachable poses, or with probability ``focus_share`` looking at a small
+    object from near (``focused_pose``): uniform poses mostly show walls and floor, and a network trained
+    on them sees a salt shaker a few dozen pixels at a time."""
     ontology = load_ontology()
     for folder in ("rgb", "depth", "instances"):
         (out / folder).mkdir(parents=True, exist_ok=True)
@@ -158,9 +199,13 @@ def render_frames(
         randomize_states(world, rng, randomization, ontology)
         cells = [tuple(int(v) for v in c) for c in np.argwhere(reachable_grid(world))]
         for k in range(per_world):
-            cell = rng.choice(cells)
-            horizon = rng.choices(HORIZONS_DEG, HORIZON_WEIGHTS)[0]
-            _place_agent(world, cell, 90 * rng.randrange(4), float(horizon))
+            focused = focused_pose(world, cells, rng, ontology) if rng.random() < focus_share else None
+            if focused is not None:
+                _place_agent(world, *focused)
+            else:
+                cell = rng.choice(cells)
+                horizon = rng.choices(HORIZONS_DEG, HORIZON_WEIGHTS)[0]
+                _place_agent(world, cell, 90 * rng.randrange(4), float(horizon))
             frame = renderer.render(world, noise_seed=rng.randrange(1 << 30))
             write_frame(out, f"{split}_w{index:05d}_f{k:02d}", frame)
             written += 1
@@ -171,6 +216,7 @@ def render_frames(
         "task_classes": task_classes(ontology),
         "frames": written,
         "seed": seed,
+        "focus_share": focus_share,
     }
     (out / "meta.json").write_text(json.dumps(meta, indent=1))
     return written
@@ -353,6 +399,9 @@ def _parser() -> argparse.ArgumentParser:
     frames = sub.choices["frames"]
     frames.add_argument("--worlds", type=int, default=400)
     frames.add_argument("--per-world", type=int, default=12)
+    frames.add_argument(
+        "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
+    )
     search = sub.choices["search"]
     search.add_argument("--episodes", type=int, default=400)
     return parser
@@ -362,7 +411,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     camera = CameraSpec(args.size, args.size, args.hfov)
     if args.command == "frames":
-        count = render_frames(args.out, args.split, args.worlds, args.per_world, camera, args.seed)
+        count = render_frames(
+            args.out, args.split, args.worlds, args.per_world, camera, args.seed, focus_share=args.focus_share
+        )
         tqdm.write(f"wrote {count} frames to {args.out}")
     else:
         count = render_search(args.out, args.split, args.episodes, camera, args.seed)

@@ -32,6 +32,9 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--split", choices=("train", "valid_unseen"), default="train")
     render.add_argument("--worlds", type=int, default=500)
     render.add_argument("--per-world", type=int, default=12)
+    render.add_argument(
+        "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
+    )
     render.add_argument("--size", type=int, default=256)
     render.add_argument("--seed", type=int, default=0)
 
@@ -83,7 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         command = [
             sys.executable, "-m", "harness.perception_data", "frames", "--out", str(args.out),
             "--split", args.split, "--worlds", str(args.worlds), "--per-world", str(args.per_world),
-            "--size", str(args.size), "--seed", str(args.seed),
+            "--size", str(args.size), "--seed", str(args.seed), "--focus-share", str(args.focus_share),
         ]  # fmt: skip
         return subprocess.call(command)
     if args.command == "train":

@@ -82,6 +82,23 @@ def test_a_run_can_start_from_an_exported_checkpoint(
         train(TrainConfig(**{**config.__dict__, "widths": (4, 4, 4, 4, 8), "run_dir": tmp_path / "other"}))
 
 
+def test_focused_frames_show_a_small_object_from_near(tmp_path: Path) -> None:
+    """Frames taken as an agent about to handle something: most show a pickupable object, many pixels of it
+    (uniform poses mostly show walls and floor)."""
+    from models.perception.dataset import load_frames
+
+    ontology = load_ontology()
+    render_frames(
+        tmp_path, "train", worlds=4, per_world=4, camera=CameraSpec(96, 96, 90.0), seed=3, focus_share=1.0
+    )
+    frames = load_frames(tmp_path, 96, use_cache=False)
+    small = np.array(
+        [i for i, name in enumerate(frames.classes) if name in ontology and ontology.get(name).pickupable]
+    )
+    shown = [int(np.isin(labels, small).sum()) for labels in frames.labels]
+    assert sum(count >= 30 for count in shown) >= 0.75 * len(shown), shown
+
+
 def test_harness_frames_follow_the_documented_layout(frames_dir: Path):
     meta = json.loads((frames_dir / "meta.json").read_text())
     assert meta["camera"] == {"width": 64, "height": 64, "hfov_deg": 90.0}
