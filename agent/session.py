@@ -50,7 +50,7 @@ from agent.mapping import MapConfig, SemanticMap, render_map_png
 from agent.navigation import make_navigator
 from agent.navigation.base import Navigator
 from agent.navigation.fmm import FmmConfig, FmmNavigator
-from agent.perception import Observation, ObservationError, Perception, make_perception
+from agent.perception import NetworkPaths, Observation, ObservationError, Perception, make_perception
 from agent.planning import (
     DialogueTurn,
     Planner,
@@ -193,6 +193,7 @@ class AgentSession:
     executor_size: int | None = None  # bytes, last measured by ``_executor_size``
     explorer: ExplorerName = DEFAULT_EXPLORER  # how the search explores for an unmapped target
     progress_replans: int = 0  # re-plans made because the plan ran out or failed
+    networks: NetworkPaths = field(default_factory=NetworkPaths)  # the learned back-end's checkpoints
     success_config: SuccessConfig = field(default_factory=SuccessConfig)
 
     @classmethod
@@ -206,6 +207,7 @@ class AgentSession:
         navigator: NavigatorName,
         planner: Planner,
         explorer: ExplorerName = DEFAULT_EXPLORER,
+        networks: NetworkPaths = NetworkPaths(),
         seed: int = 0,
         instruction: str | None = None,
         dialogue: Sequence[DialogueTurn] = (),
@@ -229,7 +231,7 @@ class AgentSession:
             given_subgoals=given_subgoals,
         )
         outcome = planner.plan(context)
-        backend = perception_backend or make_perception(perception, camera)
+        backend = perception_backend or make_perception(perception, camera, networks)
         limits = limits or SessionLimits()
         look_step = ALFRED_LOOK_STEP_DEG if mode == "instruction" else TEACH_LOOK_STEP_DEG
         executor = Executor(
@@ -256,6 +258,7 @@ class AgentSession:
             instruction=instruction,
             dialogue=list(dialogue),
             explorer=explorer,
+            networks=networks,
             history_subgoals=tuple(history_subgoals),
             plan=list(outcome.plan),
             plan_source=outcome.source,
@@ -757,7 +760,9 @@ class _SessionUnpickler(pickle.Unpickler):
     def load(self) -> Any:
         session = super().load()
         if isinstance(session, AgentSession) and isinstance(session.perception_backend, _LazyPerception):
-            session.perception_backend = make_perception(session.perception_backend.name, session.camera)
+            session.perception_backend = make_perception(
+                session.perception_backend.name, session.camera, session.networks
+            )
         return session
 
 

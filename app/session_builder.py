@@ -13,7 +13,7 @@ from typing import overload
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
-from agent.perception import Perception, make_perception
+from agent.perception import NetworkPaths, Perception, make_perception
 from agent.planning import (
     DialogueTurn,
     PlannerConfig,
@@ -65,11 +65,22 @@ def planning_errors_as_api_errors(field: str) -> Iterator[None]:
         raise ApiError(413, TOO_MANY_SUBGOALS, f"{field}: {error} (setting JARVIS_MAX_SUBGOALS)") from error
 
 
-def perception_backend(name: PerceptionName, camera: Camera) -> Perception:
+def network_paths(settings: Settings) -> NetworkPaths:
+    """The learned back-end's checkpoints: the settings' when given, else the shipped ones."""
+    shipped = NetworkPaths()
+    return NetworkPaths(
+        depth=settings.depth_checkpoint or shipped.depth,
+        segmentation=settings.segmentation_checkpoint or shipped.segmentation,
+    )
+
+
+def perception_backend(
+    name: PerceptionName, camera: Camera, networks: NetworkPaths = NetworkPaths()
+) -> Perception:
     """The session's perception back-end; 422 ``perception_unavailable`` when this installation cannot
     build it (an unknown name, or a learned back-end whose trained networks are missing)."""
     try:
-        return make_perception(name, camera)
+        return make_perception(name, camera, networks)
     except KeyError as error:
         raise ApiError(422, PERCEPTION_UNAVAILABLE, f"perception {name!r}: {error.args[0]}") from error
     except FileNotFoundError as error:
@@ -240,7 +251,8 @@ def build_session(
     else:
         history = history_steps(body.history, camera, ontology)
     start = body.history.start_pose if body.history is not None else None
-    backend = perception_backend(body.perception, camera)
+    networks = network_paths(settings)
+    backend = perception_backend(body.perception, camera, networks)
     with planning_errors_as_api_errors("subgoals"):
         return AgentSession.start(
             session_id,
@@ -250,6 +262,7 @@ def build_session(
             navigator=body.navigator,
             planner=planner,
             explorer=body.explorer,
+            networks=networks,
             seed=body.seed,
             instruction=body.instruction,
             dialogue=[DialogueTurn(turn.normalized_speaker(), turn.text) for turn in body.dialogue],

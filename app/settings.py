@@ -27,6 +27,15 @@ class Settings(BaseSettings):
         default=None,
         description="Language planner directory (any compatible seq2seq checkpoint); None: the shipped one.",
     )
+    depth_checkpoint: Path | None = Field(
+        default=None,
+        description="Depth network directory for learned perception (e.g. trained on your own AI2-THOR "
+        "frames); None: the shipped one.",
+    )
+    segmentation_checkpoint: Path | None = Field(
+        default=None,
+        description="Segmentation network directory for learned perception; None: the shipped one.",
+    )
     log_level: str = Field(default="info", description="Root log level; logs are one JSON event per line.")
 
     # Limits: a serving process must bound what one client can make it hold.

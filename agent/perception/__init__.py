@@ -17,13 +17,19 @@ from agent.perception.base import (
     PerceptionFactory,
     confident_depth,
 )
-from agent.perception.learned import LearnedPerception, learned_depth_only, learned_segmentation_only
+from agent.perception.learned import (
+    LearnedPerception,
+    NetworkPaths,
+    learned,
+    learned_depth_only,
+    learned_segmentation_only,
+)
 from agent.perception.oracle import OraclePerception
 
 PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType(
     {
         "oracle": OraclePerception,
-        "learned": LearnedPerception,
+        "learned": learned,
         "learned_depth": learned_depth_only,
         "learned_segmentation": learned_segmentation_only,
     }
@@ -32,17 +38,19 @@ PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType
 ``learned_segmentation`` are the JARVIS seed's ablations (one half learned, the other from the caller)."""
 
 
-def make_perception(name: str, camera: Camera) -> Perception:
-    """The back-end called ``name`` for a session with ``camera``; KeyError listing the known names."""
+def make_perception(name: str, camera: Camera, networks: NetworkPaths = NetworkPaths()) -> Perception:
+    """The back-end called ``name`` for a session with ``camera`` (learned back-ends load ``networks``);
+    KeyError listing the known names."""
     factory = PERCEPTION_BACKENDS.get(name)
     if factory is None:
         raise KeyError(f"unknown perception {name!r}; known: {', '.join(sorted(PERCEPTION_BACKENDS))}")
-    return factory(camera)
+    return factory(camera) if name == "oracle" else factory(camera, networks)
 
 
 __all__ = [
     "PERCEPTION_BACKENDS",
     "LearnedPerception",
+    "NetworkPaths",
     "Observation",
     "ObservationError",
     "OraclePerception",

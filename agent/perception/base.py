@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from agent.geometry import Camera, Pose
+from agent.geometry import Pose
 
 
 class ObservationError(ValueError):
@@ -79,8 +79,9 @@ class Perception(Protocol):
         ...
 
 
-PerceptionFactory = Callable[[Camera], Perception]
-"""Builds a back-end for one session's camera (a learned back-end sizes its networks' inputs from it)."""
+PerceptionFactory = Callable[..., Perception]
+"""Builds a back-end for one session's camera (a learned back-end sizes its networks' inputs from it);
+learned back-ends also take the ``NetworkPaths`` of their networks."""
 
 
 def confident_depth(

@@ -44,6 +44,16 @@ DEFAULT_CHECKPOINTS = Path(models.__file__).resolve().parent / "checkpoints"
 
 
 @dataclass(frozen=True)
+class NetworkPaths:
+    """Where the learned back-end's networks are: the shipped checkpoints, or ones a user trained on their
+    own frames (``models/perception/dataset.py``'s layout; the service's ``JARVIS_DEPTH_CHECKPOINT`` and
+    ``JARVIS_SEGMENTATION_CHECKPOINT``)."""
+
+    depth: Path = DEFAULT_CHECKPOINTS / "depth"
+    segmentation: Path = DEFAULT_CHECKPOINTS / "segmentation"
+
+
+@dataclass(frozen=True)
 class LearnedConfig:
     """Where the networks are and how their outputs become a percept."""
 
@@ -201,11 +211,25 @@ def _network_input(rgb: np.ndarray, side: int) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(small))[None]
 
 
-def learned_depth_only(camera: Camera) -> LearnedPerception:
+def _config(networks: NetworkPaths, depth: Source = "learned", classes: Source = "learned") -> LearnedConfig:
+    return LearnedConfig(
+        depth_checkpoint=networks.depth,
+        segmentation_checkpoint=networks.segmentation,
+        depth_source=depth,
+        classes_source=classes,
+    )
+
+
+def learned(camera: Camera, networks: NetworkPaths = NetworkPaths()) -> LearnedPerception:
+    """RGB only: both networks."""
+    return LearnedPerception(camera, _config(networks))
+
+
+def learned_depth_only(camera: Camera, networks: NetworkPaths = NetworkPaths()) -> LearnedPerception:
     """JARVIS ablation: learned depth, the caller's segmentation."""
-    return LearnedPerception(camera, LearnedConfig(classes_source="given"))
+    return LearnedPerception(camera, _config(networks, classes="given"))
 
 
-def learned_segmentation_only(camera: Camera) -> LearnedPerception:
+def learned_segmentation_only(camera: Camera, networks: NetworkPaths = NetworkPaths()) -> LearnedPerception:
     """JARVIS ablation: learned segmentation, the caller's depth."""
-    return LearnedPerception(camera, LearnedConfig(depth_source="given"))
+    return LearnedPerception(camera, _config(networks, depth="given"))

@@ -230,3 +230,35 @@ def test_learned_is_a_registered_perception_backend():
     assert set(PERCEPTION_BACKENDS) >= {"oracle", "learned", "learned_depth", "learned_segmentation"}
     with pytest.raises(KeyError, match="learned, learned_depth, learned_segmentation, oracle"):
         make_perception("sonar", Camera(300, 300, 60.0))
+
+
+def test_a_service_can_run_learned_perception_on_networks_a_user_trained(tiny_models: dict[str, Path]):
+    """The settings name other checkpoints (a user's, trained on their own frames): sessions use them, and
+    a restored snapshot too; a directory without a network is a clear 422."""
+    from fastapi.testclient import TestClient
+
+    from agent.perception import NetworkPaths
+    from agent.session import AgentSession
+    from app.main import create_app
+    from app.settings import Settings
+
+    networks = NetworkPaths(depth=tiny_models["depth"], segmentation=tiny_models["segmentation"])
+    perception = make_perception("learned", Camera(64, 64, 90.0), networks)
+    assert isinstance(perception, LearnedPerception)
+    assert perception.models.depth.config.unet.widths == TINY
+
+    settings = Settings(depth_checkpoint=networks.depth, segmentation_checkpoint=networks.segmentation)
+    body = {"mode": "tfd", "subgoals": "Navigate Apple", "perception": "learned"}
+    body["camera"] = {"width": 64, "height": 64, "hfov_deg": 90.0}
+    with TestClient(create_app(settings)) as client:
+        created = client.post("/v1/sessions", json=body)
+        assert created.status_code == 201, created.text
+        session = client.app.state.store.get(created.json()["session_id"])  # type: ignore[attr-defined]
+    restored = AgentSession.from_bytes(session.to_bytes())
+    assert restored.networks == networks
+    assert restored.perception_backend.models.depth.config.unet.widths == TINY  # type: ignore[attr-defined]
+
+    missing = Settings(segmentation_checkpoint=tiny_models["depth"].parent / "nothing-here")
+    with TestClient(create_app(missing)) as client:
+        refused = client.post("/v1/sessions", json=body)
+    assert refused.status_code == 422 and refused.json()["error"] == "perception_unavailable", refused.text
