@@ -55,7 +55,7 @@ class TrainConfig:
     learning_rate: float = 1e-3  # peak AdamW learning rate after warm-up
     weight_decay: float = 0.01
     warmup_steps: int = 300  # steps of linear warm-up, then linear decay to zero at max_steps
-    max_steps: int = 5500  # optimizer steps: ~3.5 epochs of the 50k ALFRED + TEACh-format examples at batch 32
+    max_steps: int = 5500  # optimizer steps: ~3.5 epochs of 50k ALFRED + TEACh-format examples at batch 32
     save_every: int = 250  # steps between resumable checkpoints
     eval_every: int = 1100  # steps between dev-loss evaluations (0: never)
     label_smoothing: float = 0.1
