@@ -5,10 +5,11 @@ preconditions the assumed state violates: it removes Pickup of what cannot move,
 receptacle, Slice of what cannot be sliced and Open/Toggle of what does not afford it (here
 "impossible-action"); puts the held object on the CounterTop before another Pickup
 ("pickup-needs-free-hands"); and fetches a knife before Slice ("slice-needs-knife"). The seed's Place
-with nothing in hand is dropped ("place-needs-held"). Beyond Algorithm 2, because our plans carry explicit
-Navigate steps and AI2-THOR's containers shut: closed receptacles are opened before Place/Pickup and shut
-again afterwards when only the repair opened them, pieces are sliced before use, Pour gets a filled
-container, and every interaction is preceded by a Navigate to its object.
+with nothing in hand is dropped ("place-needs-held"), except into a coffee machine, which gets a mug.
+Beyond Algorithm 2, because our plans carry explicit Navigate steps and AI2-THOR's containers shut: closed
+receptacles are opened before Place/Pickup and shut again afterwards when only the repair opened them,
+pieces are sliced before use, Pour gets a filled container, and every interaction is preceded by a
+Navigate to its object.
 
 Each rule is named in ``REPAIR_RULES`` and every change is logged as a ``RepairEvent`` with the rule and a
 reason, so a user sees why the plan changed. Rules are checked in order at each position, against the
@@ -53,6 +54,10 @@ FILL_BASIN = "SinkBasin"
 WATER_TAP = "Faucet"
 POUR_CONTAINERS: tuple[str, ...] = ("Cup", "Mug", "Bowl", "Pot")
 """Containers fetched to carry water when a Pour has none (TEACh Water Plant uses any of them)."""
+
+APPLIANCE_VESSELS: Mapping[str, str] = {"CoffeeMachine": "Mug"}
+"""Appliances a plan may put "nothing" into: a language model that writes "Place CoffeeMachine" without
+fetching a mug still means coffee in a mug (TEACh's Coffee task)."""
 
 MAX_FIXES_PER_STEP = 32
 MAX_PASSES = 8
@@ -192,10 +197,14 @@ def slice_before_pieces(ctx: RuleContext) -> Fix | None:
 
 
 def place_needs_held(ctx: RuleContext) -> Fix | None:
-    """Remove Place when nothing is held (seed: "remove Place(agent, x) if there is nothing in the hand")."""
+    """Remove Place when nothing is held (seed: "remove Place(agent, x) if there is nothing in the hand"),
+    except into an appliance that only works on one kind of vessel: that vessel is fetched first."""
     current = ctx.current
     if current is None or current.action is not A.PLACE or ctx.belief.held is not None:
         return None
+    vessel = APPLIANCE_VESSELS.get(current.obj)
+    if vessel is not None:
+        return Fix(f"{current.obj} works on a {vessel}: fetch one", inserted=(Subgoal(A.PICKUP, vessel),))
     return Fix(f"nothing is held to put on {current.obj}", remove_current=True)
 
 

@@ -28,7 +28,9 @@ EDH: dict[str, Any] = {
     "instance_id": "0a1b2c3d4e5f6a7b_0001.edh1",
     "pred_start_idx": 4,
     "dialog_history": [
-        ["Commander", "Hello, put the mug on the table please."],
+        # Something is left to do after the history (four steps are driven below); with a bare "the table"
+        # the default planner decides nothing is left (a known weakness, in its model card).
+        ["Commander", "Hello, put the mug on the dining table please."],
         ["Driver", "ok"],
         ["Driver", " "],
     ],
@@ -150,7 +152,8 @@ def test_start_replays_the_history_into_a_learned_perception_edh_session(client:
     assert session["planner"] == "model"
     assert session["camera"] == {"width": SIDE, "height": SIDE, "hfov_deg": 90.0, "height_m": CAMERA_HEIGHT_M}
     assert [s["text"] for s in session["history_subgoals"]] == ["Navigate Mug", "Pickup Mug"]
-    assert [t["text"] for t in session["dialogue"]] == ["Hello, put the mug on the table please.", "ok"]
+    said = [t["text"] for t in session["dialogue"]]
+    assert said == ["Hello, put the mug on the dining table please.", "ok"]
 
 
 def test_history_frames_reach_the_map(client: TestClient) -> None:

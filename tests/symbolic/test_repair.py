@@ -51,6 +51,15 @@ def test_place_with_nothing_held_is_removed(onto: Ontology) -> None:
     assert fired(result) == ["place-needs-held"]
 
 
+def test_a_coffee_machine_with_nothing_held_gets_a_mug_fetched(onto: Ontology) -> None:
+    result = repair(onto, "Navigate CoffeeMachine, Place CoffeeMachine, ToggleOn CoffeeMachine")
+    assert format_subgoals(result.plan) == (
+        "Navigate Mug, Pickup Mug, Navigate CoffeeMachine, Place CoffeeMachine, ToggleOn CoffeeMachine"
+    )
+    assert "place-needs-held" in fired(result)
+    assert "CoffeeMachine works on a Mug" in result.log[0].reason
+
+
 def test_place_into_an_incompatible_receptacle_is_removed(onto: Ontology) -> None:
     belief = BeliefState(held="Bread", at="Toaster")
     result = repair(onto, "Place Toaster", belief)
