@@ -1,11 +1,13 @@
 """Perception back-ends behind one contract (``base``), chosen by name per session.
 
-``oracle`` uses the caller's depth and segmentation; the learned back-end (RGB only) joins this registry
-with the perception-models issue, and nothing outside this package changes when it does.
+``oracle`` uses the caller's depth and segmentation; ``learned`` needs RGB only and runs the depth and
+segmentation networks found at a session's ``NetworkPaths``; every factory takes both, so callers never
+ask which kind they build.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from types import MappingProxyType
 
 from agent.geometry import Camera
@@ -14,7 +16,6 @@ from agent.perception.base import (
     ObservationError,
     Percept,
     Perception,
-    PerceptionFactory,
     confident_depth,
 )
 from agent.perception.learned import (
@@ -26,9 +27,19 @@ from agent.perception.learned import (
 )
 from agent.perception.oracle import OraclePerception
 
+PerceptionFactory = Callable[[Camera, NetworkPaths], Perception]
+"""Builds a back-end for one session's camera (a learned back-end sizes its networks' inputs from it and
+loads the networks at the given paths)."""
+
+
+def _oracle(camera: Camera, networks: NetworkPaths) -> OraclePerception:
+    """The oracle back-end has no networks."""
+    return OraclePerception(camera)
+
+
 PERCEPTION_BACKENDS: MappingProxyType[str, PerceptionFactory] = MappingProxyType(
     {
-        "oracle": OraclePerception,
+        "oracle": _oracle,
         "learned": learned,
         "learned_depth": learned_depth_only,
         "learned_segmentation": learned_segmentation_only,
@@ -44,7 +55,7 @@ def make_perception(name: str, camera: Camera, networks: NetworkPaths = NetworkP
     factory = PERCEPTION_BACKENDS.get(name)
     if factory is None:
         raise KeyError(f"unknown perception {name!r}; known: {', '.join(sorted(PERCEPTION_BACKENDS))}")
-    return factory(camera) if name == "oracle" else factory(camera, networks)
+    return factory(camera, networks)
 
 
 __all__ = [

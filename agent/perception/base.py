@@ -8,7 +8,7 @@ swapping back-ends changes nothing outside ``agent/perception``.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -77,11 +77,6 @@ class Perception(Protocol):
     def perceive(self, obs: Observation, *, target_type: str | None) -> Percept:
         """``target_type`` is the current subgoal's object: HLSM trusts its depth more (eq. 5)."""
         ...
-
-
-PerceptionFactory = Callable[..., Perception]
-"""Builds a back-end for one session's camera (a learned back-end sizes its networks' inputs from it);
-learned back-ends also take the ``NetworkPaths`` of their networks."""
 
 
 def confident_depth(
