@@ -171,6 +171,21 @@ def focused_pose(
     return cell, yaw, float(horizon)
 
 
+def hold_random_object(world: World, rng: random.Random, ontology: Ontology) -> WorldObject | None:
+    """Put a random pickupable object in the agent's hand (one type drawn uniformly, then one instance):
+    the renderer draws it in front of the camera, as AI2-THOR shows what the agent carries. None when the
+    world has nothing pickupable. The caller empties the hand (``world.agent.held = None``) afterwards."""
+    by_type: dict[str, list[WorldObject]] = {}
+    for obj in world.objects.values():
+        if ontology.get(obj.object_type).pickupable:
+            by_type.setdefault(obj.object_type, []).append(obj)
+    if not by_type:
+        return None
+    obj = rng.choice(by_type[rng.choice(sorted(by_type))])
+    world.agent.held = obj.object_id
+    return obj
+
+
 def render_frames(
     out: Path,
     split: Split,
@@ -180,12 +195,16 @@ def render_frames(
     seed: int,
     randomization: StateRandomization = StateRandomization(),
     focus_share: float = 0.0,
+    held_share: float = 0.0,
 ) -> int:
     """Write ``per_world`` frames from each of ``worlds`` worlds of ``split``; returns frames written.
 
     Frames are taken from random reachable poses, or with probability ``focus_share`` looking at a small
     object from near (``focused_pose``): uniform poses mostly show walls and floor, and a network trained
-    on them sees a salt shaker a few dozen pixels at a time."""
+    on them sees a salt shaker a few dozen pixels at a time. With probability ``held_share`` the agent also
+    holds a random object (``hold_random_object``): an agent carries something for half of a task, and
+    networks that never saw a held object read it as a far table (wrong depth, wrong class) and the
+    executor then clicks on it."""
     ontology = load_ontology()
     for folder in ("rgb", "depth", "instances"):
         (out / folder).mkdir(parents=True, exist_ok=True)
@@ -206,7 +225,10 @@ def render_frames(
                 cell = rng.choice(cells)
                 horizon = rng.choices(HORIZONS_DEG, HORIZON_WEIGHTS)[0]
                 _place_agent(world, cell, 90 * rng.randrange(4), float(horizon))
+            if rng.random() < held_share:
+                hold_random_object(world, rng, ontology)
             frame = renderer.render(world, noise_seed=rng.randrange(1 << 30))
+            world.agent.held = None
             write_frame(out, f"{split}_w{index:05d}_f{k:02d}", frame)
             written += 1
     meta = {
@@ -217,6 +239,7 @@ def render_frames(
         "frames": written,
         "seed": seed,
         "focus_share": focus_share,
+        "held_share": held_share,
     }
     (out / "meta.json").write_text(json.dumps(meta, indent=1))
     return written
@@ -402,6 +425,9 @@ def _parser() -> argparse.ArgumentParser:
     frames.add_argument(
         "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
     )
+    frames.add_argument(
+        "--held-share", type=float, default=0.0, help="share of frames with a random object in the hand"
+    )
     search = sub.choices["search"]
     search.add_argument("--episodes", type=int, default=400)
     return parser
@@ -412,7 +438,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     camera = CameraSpec(args.size, args.size, args.hfov)
     if args.command == "frames":
         count = render_frames(
-            args.out, args.split, args.worlds, args.per_world, camera, args.seed, focus_share=args.focus_share
+            args.out,
+            args.split,
+            args.worlds,
+            args.per_world,
+            camera,
+            args.seed,
+            focus_share=args.focus_share,
+            held_share=args.held_share,
         )
         tqdm.write(f"wrote {count} frames to {args.out}")
     else:

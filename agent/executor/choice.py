@@ -279,10 +279,11 @@ class InstanceChoice(StepContext):
         there instead (None).
         """
         self._note_looks(obj)
+        persistent = self.view.percept.persistent_ids
         candidates = [
             v
             for v in self.view.clickable(obj)
-            if attempt.instance_failures(v.instance_id) < self.cfg.retries_per_instance
+            if attempt.instance_failures(v.instance_id, v.point, persistent) < self.cfg.retries_per_instance
             and not self._switched(v.point, attempt.switched)
         ]
         on = self.state.memory.switched_on.get(obj, [])

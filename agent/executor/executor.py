@@ -36,7 +36,7 @@ from agent.executor.config import ExecutorConfig
 from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.room import MakeRoom
-from agent.executor.state import Attempt, ExecutorState, Pending
+from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
 from agent.navigation.base import Navigator
@@ -260,8 +260,10 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             return
         attempt.failures += 1
         if click is not None:
-            attempt.failed_clicks.append((click.instance_id, click.row, click.col))
-            if pending.action in STATE_ACTIONS and attempt.instance_failures(click.instance_id) >= 2:
+            attempt.failed_clicks.append(FailedClick.of(click, pending.pose))
+            persistent = self.view.percept.persistent_ids
+            failures_here = attempt.instance_failures(click.instance_id, click.point, persistent)
+            if pending.action in STATE_ACTIONS and failures_here >= 2:
                 if self._more_switches(subgoal, attempt, click, changed=False):
                     return
                 self._complete(
@@ -272,10 +274,18 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
                 return
             if attempt.failures >= self.cfg.failures_before_room and self._make_room(subgoal, click):
                 return
-            if subgoal.action is A.PLACE and attempt.instance_failures(click.instance_id) >= 2:
+            if subgoal.action is A.PLACE and failures_here >= 2:
                 full = self._extent_of(click.instance_id)  # AI2-THOR tried every spot on it: full
                 if full is not None:
                     attempt.full.append(full)
+            if (
+                not persistent
+                and subgoal.action is not A.PLACE
+                and failures_here >= self.cfg.retries_per_instance
+            ):
+                self._rule_out_click(
+                    subgoal.obj, click, f"{pending.action} failed {failures_here} times there"
+                )
             if attempt.failures % self.cfg.failures_per_stand == 0:
                 attempt.bad_stands.append((pending.pose.x, pending.pose.z))
         self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")

@@ -167,7 +167,8 @@ class SessionMapView:
         self._ignored = ignored  # the executor's list: spots it adds this step apply at once (``forget``)
         self._explore_attempts = dict(explore_attempts)
         self.distances = pixel_distances(percept.depth, camera)  # [H, W] metres from the camera
-        self.reach = pixel_axis_distances(percept.depth, camera, pose.horizon)  # [H, W] from the body's axis
+        far = percept.depth if percept.depth_far is None else percept.depth_far  # reach on the far end
+        self.reach = pixel_axis_distances(far, camera, pose.horizon)  # [H, W] from the body's axis
         held = None
         if holding and held_type in semantic_map.classes.types:
             held = np.asarray(percept.class_ids == semantic_map.classes.id_of(held_type))

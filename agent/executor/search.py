@@ -754,6 +754,9 @@ class ContainerSearch(Approach):
                 self._learn_front(visit.object_type, pending)
                 self.state.memory.instance[visit.object_type] = pending.click.instance_id
                 self.events.append(f"search: opened {visit.object_type}")
+            elif pending.click is not None and not self.view.percept.persistent_ids:
+                self._rule_out_click(visit.object_type, pending.click, "it did not open")
+                search.visit = None
             elif pending.click is not None:  # nothing changed: it stands open already; look in all the same
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id

@@ -58,6 +58,34 @@ class Pending:
     # count near the click before the door swung (``Memory.fronts``)
 
 
+FAILED_CLICK_RADIUS_M = 0.25
+"""Metres: without persistent instance ids, an instance whose centre lies this close to a failed click's
+world point is the instance that click failed on (a mug-sized object; a counter's clicks spread wider)."""
+
+
+@dataclass(frozen=True)
+class FailedClick:
+    """A click whose action failed: on what, at which pixel, at which world point, from where."""
+
+    instance_id: int
+    row: int
+    col: int
+    point: Point
+    stand: tuple[float, float, float, float]  # pose x, z, yaw, horizon it was made from
+
+    @classmethod
+    def of(cls, click: Click, pose: Pose) -> FailedClick:
+        return cls(click.instance_id, click.row, click.col, click.point, stand_of(pose))
+
+    def near(self, point: Point) -> bool:
+        return sum((a - b) ** 2 for a, b in zip(self.point, point, strict=True)) <= FAILED_CLICK_RADIUS_M**2
+
+
+def stand_of(pose: Pose) -> tuple[float, float, float, float]:
+    """A pose rounded to what the grid and the look steps can tell apart (a failed click's viewpoint)."""
+    return (round(pose.x, 2), round(pose.z, 2), round(pose.yaw) % 360, round(pose.horizon))
+
+
 @dataclass(frozen=True)
 class Hint:
     """A commander's help with one subgoal (TATC, ``symbolic.commands``): where to stand, in the map's
@@ -164,7 +192,7 @@ class Attempt:
     first_step: int
     steps: int = 0
     failures: int = 0  # failed object actions for this subgoal
-    failed_clicks: list[tuple[int, int, int]] = field(default_factory=list)  # (instance id, row, col)
+    failed_clicks: list[FailedClick] = field(default_factory=list)
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
     unreachable: list[Spot] = field(default_factory=list)  # mapped clusters the navigator could not reach
     heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
@@ -186,8 +214,22 @@ class Attempt:
     # (stove knobs) switched this subgoal
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch
 
-    def instance_failures(self, instance_id: int) -> int:
-        return sum(1 for failed_id, _, _ in self.failed_clicks if failed_id == instance_id)
+    def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:
+        """Failed clicks on an instance: by its id when ids persist across frames (the oracle's), else the
+        ones made at its world ``point`` (``FAILED_CLICK_RADIUS_M``)."""
+        if persistent_ids:
+            return sum(1 for failed in self.failed_clicks if failed.instance_id == instance_id)
+        return sum(1 for failed in self.failed_clicks if failed.near(point))
+
+    def avoided_pixels(
+        self, instance_id: int, pose: Pose, persistent_ids: bool
+    ) -> tuple[tuple[int, int], ...]:
+        """Pixels of earlier failed clicks a retry should not hit again: those on the instance (persistent
+        ids), or those made from this very viewpoint (ids renumbered each frame)."""
+        if persistent_ids:
+            return tuple((f.row, f.col) for f in self.failed_clicks if f.instance_id == instance_id)
+        here = stand_of(pose)
+        return tuple((f.row, f.col) for f in self.failed_clicks if f.stand == here)
 
 
 @dataclass

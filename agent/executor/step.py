@@ -15,7 +15,7 @@ import numpy as np
 
 from agent.executor.clicks import Click, ClickPurpose, VisibleInstance, choose_click
 from agent.executor.config import ExecutorConfig
-from agent.executor.mapview import SessionMapView
+from agent.executor.mapview import IgnoredSpot, SessionMapView
 from agent.executor.state import Attempt, ExecutorState, PendingPurpose, Point
 from agent.executor.success import FrameDigest
 from agent.geometry import Pose
@@ -135,9 +135,21 @@ class StepContext(ABC):
             return "Turn Right" if off > 0 else "Turn Left"
         return None
 
+    def _rule_out_click(self, obj: str, click: Click, why: str) -> None:
+        """Learned segmentation named something X that X's actions fail on (a coffee machine read as a pot):
+        rule the clicked spot out for X for the rest of the episode, so neither the frame nor the map sends
+        the agent back to it (HLSM's Ignore for a false detection)."""
+        x, _, z = click.point
+        reason = f"Ignore({obj}) at ({x:.2f}, {z:.2f}): {why}"
+        self.state.ignored.append(
+            IgnoredSpot(obj, x, z, self.cfg.false_detection_radius_m, reason, subgoal_index=None)
+        )
+        self.events.append(reason)
+        self.view.forget(obj)
+
     def _click_on(self, chosen: VisibleInstance, attempt: Attempt, purpose: ClickPurpose) -> Click | None:
-        avoid = tuple((row, col) for iid, row, col in attempt.failed_clicks if iid == chosen.instance_id)
         view = self.view
+        avoid = attempt.avoided_pixels(chosen.instance_id, self.pose, view.percept.persistent_ids)
         return choose_click(
             chosen,
             view.percept.instances,

@@ -61,10 +61,19 @@ class Percept:
     """int32 [H, W] instance ids (0 = none)."""
     instance_types: Mapping[int, str]
     """Instance id -> canonical type of the instances in this frame."""
+    persistent_ids: bool = True
+    """Whether an instance id names the same object in every frame (the simulator's ids, as the oracle
+    gives them). The learned back-end numbers connected components afresh each frame, so the executor then
+    recognises an instance it failed on by where it is, not by its id."""
+    depth_far: np.ndarray | None = None
+    """float32 [H, W]: the far end of each reading's 90% interval (None: the depth is exact). Reach is
+    judged on it, so an object the network puts at 1.2 m give or take 0.4 m is walked closer to first."""
 
     def __post_init__(self) -> None:
         H, W = self.depth.shape
-        for name in ("depth_valid", "class_ids", "instances"):
+        for name in ("depth_valid", "class_ids", "instances", "depth_far"):
+            if getattr(self, name) is None:
+                continue
             shape = getattr(self, name).shape
             assert shape == (H, W), f"{name} has shape {shape}, depth has {(H, W)}"
         assert self.class_ids.dtype == np.uint8, f"class_ids must be uint8, got {self.class_ids.dtype}"

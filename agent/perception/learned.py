@@ -154,6 +154,8 @@ class LearnedPerception:
             class_ids=seen.class_ids,
             instances=seen.instances,
             instance_types=seen.instance_types,
+            persistent_ids=self.config.classes_source == "given",
+            depth_far=None if width90 is None else depth + 0.5 * width90,
         )
 
     def estimate_depth(self, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

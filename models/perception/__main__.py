@@ -35,6 +35,9 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument(
         "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
     )
+    render.add_argument(
+        "--held-share", type=float, default=0.0, help="share of frames with a random object in the hand"
+    )
     render.add_argument("--size", type=int, default=256)
     render.add_argument("--seed", type=int, default=0)
 
@@ -87,6 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             sys.executable, "-m", "harness.perception_data", "frames", "--out", str(args.out),
             "--split", args.split, "--worlds", str(args.worlds), "--per-world", str(args.per_world),
             "--size", str(args.size), "--seed", str(args.seed), "--focus-share", str(args.focus_share),
+            "--held-share", str(args.held_share),
         ]  # fmt: skip
         return subprocess.call(command)
     if args.command == "train":

@@ -12,6 +12,7 @@ from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, in
 from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
 from agent.executor.looks import StainConfig, looks, stained_share
 from agent.executor.replay import holding_before
+from agent.executor.state import Attempt, FailedClick
 from agent.executor.success import instance_colour
 from agent.geometry import Camera, Pose
 from agent.perception import Observation
@@ -350,3 +351,38 @@ def test_while_holding_only_the_held_types_near_pixels_are_unusable() -> None:
     assert usable[of["Microwave"]].all()
     blunt = usable_pixels(distances, True, CONFIG)  # the held type unknown: every near pixel is left out
     assert not blunt[of["Microwave"] & (distances < CONFIG.holding_min_distance_m)].any()
+
+
+# ----- failed clicks ------------------------------------------------------------------------------------
+
+
+def _failed_attempt() -> Attempt:
+    """Two failed Pickups on instance 7 at one spot, from one viewpoint."""
+    from agent.executor.clicks import Click
+    from symbolic.subgoals import Subgoal, SubgoalAction
+
+    attempt = Attempt(index=0, subgoal=Subgoal(SubgoalAction.PICKUP, "Pot"), first_step=0)
+    pose = Pose(1.0, 1.0, 90.0, 30.0)
+    for row in (140, 150):
+        click = Click(row, 100, 100 / 300, row / 300, 7, (1.5, 0.9, 1.02))
+        attempt.failed_clicks.append(FailedClick.of(click, pose))
+    return attempt
+
+
+def test_failed_clicks_count_by_id_when_ids_persist_and_by_place_when_they_do_not() -> None:
+    # The oracle's ids name one object in every frame; a learned segmenter renumbers its components each
+    # frame, so the same misnamed coffee machine comes back as instance 3, then 12, at the same spot.
+    attempt = _failed_attempt()
+    assert attempt.instance_failures(7, (9.0, 9.0, 9.0), persistent_ids=True) == 2
+    assert attempt.instance_failures(3, (1.5, 0.9, 1.02), persistent_ids=True) == 0
+    assert attempt.instance_failures(3, (1.55, 0.92, 1.0), persistent_ids=False) == 2
+    assert attempt.instance_failures(7, (2.5, 0.9, 1.0), persistent_ids=False) == 0  # a pot 1 m away
+
+
+def test_a_retry_avoids_the_failed_pixels_of_its_instance_or_of_its_viewpoint() -> None:
+    attempt = _failed_attempt()
+    here, elsewhere = Pose(1.0, 1.0, 90.0, 30.0), Pose(1.25, 1.0, 90.0, 30.0)
+    assert attempt.avoided_pixels(7, elsewhere, persistent_ids=True) == ((140, 100), (150, 100))
+    assert attempt.avoided_pixels(4, here, persistent_ids=True) == ()
+    assert attempt.avoided_pixels(4, here, persistent_ids=False) == ((140, 100), (150, 100))
+    assert attempt.avoided_pixels(7, elsewhere, persistent_ids=False) == ()

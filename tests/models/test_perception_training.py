@@ -187,6 +187,8 @@ def test_learned_perception_turns_rgb_into_a_percept_at_the_camera_size(tiny_mod
     assert percept.class_ids.dtype == np.uint8 and int(percept.class_ids.max()) <= len(load_class_index())
     assert set(np.unique(percept.instances)) - {0} <= set(percept.instance_types)
     assert set(percept.instance_types.values()) <= set(load_ontology().types)
+    assert not percept.persistent_ids  # components are numbered afresh every frame
+    assert percept.depth_far is not None and (percept.depth_far >= percept.depth).all()
     with pytest.raises(ObservationError) as excinfo:
         perception.perceive(Observation(), target_type=None)
     assert excinfo.value.field == "rgb"
@@ -216,11 +218,13 @@ def test_ablation_settings_take_one_half_from_the_caller(tiny_models: dict[str, 
     percept = depth_only.perceive(obs, target_type="Cabinet")
     assert np.array_equal(percept.class_ids, oracle.class_ids)
     assert np.array_equal(percept.instances, frame.instances)
+    assert percept.persistent_ids  # the caller's (simulator's) ids
     assert not np.array_equal(percept.depth, frame.depth)
     classes_only = LearnedPerception(camera, LearnedConfig(depth_source="given"), models=models)
     percept = classes_only.perceive(obs, target_type="Cabinet")
     assert np.array_equal(percept.depth, frame.depth)
     assert np.array_equal(percept.depth_valid, frame.depth > 0)  # no W90 given: every reading is trusted
+    assert percept.depth_far is None and not percept.persistent_ids
     with pytest.raises(ObservationError) as excinfo:
         classes_only.perceive(Observation(rgb=frame.rgb), target_type=None)
     assert excinfo.value.field == "depth"
