@@ -99,6 +99,27 @@ def test_focused_frames_show_a_small_object_from_near(tmp_path: Path) -> None:
     assert sum(count >= 30 for count in shown) >= 0.75 * len(shown), shown
 
 
+def test_held_frames_show_a_pickupable_object_before_the_camera(tmp_path: Path) -> None:
+    """An agent carries something for half a task: with held_share 1 every frame shows a pickupable object
+    within half a metre of the camera, labelled with its type (what the networks must learn to see)."""
+    from models.perception.dataset import load_frames
+
+    ontology = load_ontology()
+    render_frames(
+        tmp_path, "train", worlds=3, per_world=3, camera=CameraSpec(96, 96, 90.0), seed=4, held_share=1.0
+    )
+    frames = load_frames(tmp_path, 96, use_cache=False)
+    small = np.array(
+        [i for i, name in enumerate(frames.classes) if name in ontology and ontology.get(name).pickupable]
+    )
+    depth_m = frames.depth_mm.astype(np.float32) / 1000.0
+    held = [
+        int((np.isin(labels, small) & (depth > 0) & (depth < 0.5)).sum())
+        for labels, depth in zip(frames.labels, depth_m, strict=True)
+    ]
+    assert len(held) == 9 and min(held) >= 20, held
+
+
 def test_harness_frames_follow_the_documented_layout(frames_dir: Path):
     meta = json.loads((frames_dir / "meta.json").read_text())
     assert meta["camera"] == {"width": 64, "height": 64, "hfov_deg": 90.0}
