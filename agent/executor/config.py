@@ -70,6 +70,8 @@ class ExecutorConfig:
     stain: StainConfig = field(default_factory=StainConfig)
     ignore_after: int = DEFAULT_IGNORE_ATTEMPTS  # look-arounds at a mapped X, unseen, before Ignore(X)
     ignore_radius_m: float = 0.4  # metres around an ignored detection
+    held_check_min_share: float = 0.004  # share of the frame a held object must cover before its look
+    # is believed over the plan's (a knife at 0.45 m covers about 1%)
     false_detection_radius_m: float = 0.2  # metres around a spot learned segmentation misnamed (clicks
     # on it kept failing); small, as the real X may stand right beside it
     bad_stand_radius_m: float = 0.3  # metres: goal cells this close to a given-up standing spot are skipped

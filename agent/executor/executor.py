@@ -249,6 +249,11 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         subgoal = self.plan[self.pointer]
         click = pending.click
         if success is not False:
+            if pending.action == "Pickup" and click is not None and not self.view.percept.persistent_ids:
+                looks_like = self._held_look(subgoal.obj)
+                if looks_like is not None:
+                    self._wrong_pickup(subgoal, click, looks_like)
+                    return
             point, instance_id = (click.point, click.instance_id) if click is not None else (None, None)
             if click is not None and self._more_switches(subgoal, attempt, click, changed=True):
                 return
@@ -289,6 +294,39 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             if attempt.failures % self.cfg.failures_per_stand == 0:
                 attempt.bad_stands.append((pending.pose.x, pending.pose.z))
         self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")
+
+    def _held_look(self, wanted: str) -> str | None:
+        """The pickupable type the segmentation sees in the hand, when it is clearly not ``wanted``: the
+        near pixels (``holding_min_distance_m``) of pickupable types are mostly one other type and hardly
+        any of ``wanted``. None when the hand shows ``wanted``, nothing clear, or too little to tell."""
+        percept, classes = self.view.percept, self.view.map.classes
+        distances = self.view.distances
+        near = (distances > 0) & (distances < self.cfg.click.holding_min_distance_m)
+        ids, counts = np.unique(percept.class_ids[near], return_counts=True)
+        shown = {
+            classes.types[i - 1]: int(n)
+            for i, n in zip(ids.tolist(), counts.tolist(), strict=True)
+            if i > 0 and self.onto.get(classes.types[i - 1]).pickupable
+        }
+        total = sum(shown.values())
+        H, W = percept.depth.shape
+        if total < self.cfg.held_check_min_share * H * W or shown.get(wanted, 0) > 0.25 * total:
+            return None
+        top = max(shown, key=lambda name: shown[name])
+        return top if shown[top] >= 0.6 * total else None
+
+    def _wrong_pickup(self, subgoal: Subgoal, click: Click, looks_like: str) -> None:
+        """A Pickup X that took something else (learned segmentation misnamed it): the belief holds what
+        the hand shows, the spot is ruled out for X, and repair puts the thing down before X is fetched
+        again (``pickup-needs-free-hands``)."""
+        self._rule_out_click(subgoal.obj, click, f"what it picked up there looks like a {looks_like}")
+        self.state.belief.held = looks_like
+        self.state.attempt = None
+        repaired = repair_plan(self.plan[self.pointer :], self.onto, self.state.belief)
+        self.repairs.extend(
+            RepairEvent(e.rule, e.index + self.pointer, e.reason, e.removed, e.inserted) for e in repaired.log
+        )
+        self.plan = self.plan[: self.pointer] + list(repaired.plan)
 
     def _more_switches(self, subgoal: Subgoal, attempt: Attempt, click: Click, changed: bool) -> bool:
         """For a switch of a row (``ROW_SWITCHES``: which stove knob heats which burner is not written on
