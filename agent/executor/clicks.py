@@ -102,6 +102,33 @@ def usable_pixels(
     return usable
 
 
+def held_type_in_view(
+    class_ids: np.ndarray,
+    distances: np.ndarray,
+    type_names: tuple[str, ...],
+    pickupable: frozenset[str],
+    wanted: str,
+    config: ClickConfig,
+    min_share: float,
+) -> str | None:
+    """The pickupable type a frame shows in the hand when it is clearly not ``wanted`` (a Pickup Knife
+    that took a plate): of the pixels nearer than ``holding_min_distance_m`` with a pickupable class
+    (``class_ids`` k names ``type_names[k - 1]``), at least ``min_share`` of the frame, at least 60% one
+    other type and at most 25% ``wanted``. None when the hand shows ``wanted``, nothing, or nothing clear."""
+    near = (distances > 0) & (distances < config.holding_min_distance_m)
+    ids, counts = np.unique(class_ids[near], return_counts=True)
+    shown = {
+        type_names[i - 1]: int(n)
+        for i, n in zip(ids.tolist(), counts.tolist(), strict=True)
+        if i > 0 and type_names[i - 1] in pickupable
+    }
+    total = sum(shown.values())
+    if total == 0 or total < min_share * class_ids.size or shown.get(wanted, 0) > 0.25 * total:
+        return None
+    top = max(shown, key=lambda name: shown[name])
+    return top if shown[top] >= 0.6 * total else None
+
+
 def visible_instances(
     mask: np.ndarray,
     instances: np.ndarray,

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.executor.clicks import Click, ClickPurpose, VisibleInstance
+from agent.executor.clicks import Click, ClickPurpose, VisibleInstance, held_type_in_view
 from agent.executor.config import ExecutorConfig
 from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
@@ -296,24 +296,18 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self.events.append(f"{pending.action} {subgoal.obj} failed ({attempt.failures} so far)")
 
     def _held_look(self, wanted: str) -> str | None:
-        """The pickupable type the segmentation sees in the hand, when it is clearly not ``wanted``: the
-        near pixels (``holding_min_distance_m``) of pickupable types are mostly one other type and hardly
-        any of ``wanted``. None when the hand shows ``wanted``, nothing clear, or too little to tell."""
-        percept, classes = self.view.percept, self.view.map.classes
-        distances = self.view.distances
-        near = (distances > 0) & (distances < self.cfg.click.holding_min_distance_m)
-        ids, counts = np.unique(percept.class_ids[near], return_counts=True)
-        shown = {
-            classes.types[i - 1]: int(n)
-            for i, n in zip(ids.tolist(), counts.tolist(), strict=True)
-            if i > 0 and self.onto.get(classes.types[i - 1]).pickupable
-        }
-        total = sum(shown.values())
-        H, W = percept.depth.shape
-        if total < self.cfg.held_check_min_share * H * W or shown.get(wanted, 0) > 0.25 * total:
-            return None
-        top = max(shown, key=lambda name: shown[name])
-        return top if shown[top] >= 0.6 * total else None
+        """What the hand shows after a Pickup of ``wanted``, when it is clearly something else."""
+        classes = self.view.map.classes
+        pickupable = frozenset(name for name in classes.types if self.onto.get(name).pickupable)
+        return held_type_in_view(
+            self.view.percept.class_ids,
+            self.view.distances,
+            classes.types,
+            pickupable,
+            wanted,
+            self.cfg.click,
+            self.cfg.held_check_min_share,
+        )
 
     def _wrong_pickup(self, subgoal: Subgoal, click: Click, looks_like: str) -> None:
         """A Pickup X that took something else (learned segmentation misnamed it): the belief holds what

@@ -386,3 +386,39 @@ def test_a_retry_avoids_the_failed_pixels_of_its_instance_or_of_its_viewpoint() 
     assert attempt.avoided_pixels(4, here, persistent_ids=True) == ()
     assert attempt.avoided_pixels(4, here, persistent_ids=False) == ((140, 100), (150, 100))
     assert attempt.avoided_pixels(7, elsewhere, persistent_ids=False) == ()
+
+
+def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
+    # A Pickup Knife that took a plate (learned segmentation misnamed it): the frame after shows a plate
+    # before the eye, which the executor reads before believing the plan's knife is in hand.
+    from agent.classes import load_class_index
+    from agent.executor.clicks import held_type_in_view
+    from harness.camera import CameraSpec
+    from harness.render import Renderer
+    from harness.world import AgentState, Room, World, make_object_id
+    from symbolic.ontology import load_ontology
+
+    onto, classes = load_ontology(), load_class_index()
+    pickupable = frozenset(t for t in classes.types if onto.get(t).pickupable)
+    plate = WorldObject(
+        make_object_id("Plate", (1.0, 0.9, 1.0)), "Plate", (1.0, 0.9, 1.0), (0.25, 0.03, 0.25)
+    )
+    oven = WorldObject(
+        make_object_id("Microwave", (2.375, 1.2, 1.9)), "Microwave", (2.375, 1.2, 1.9), (0.5, 0.3, 0.4)
+    )
+    room = Room(kind="kitchen", floor=np.ones((20, 20), dtype=bool), origin=(0.0, 0.0))
+    camera = Camera(300, 300, 90.0)
+
+    def hand_reads(held: str | None, wanted: str) -> str | None:
+        agent = AgentState(x=2.375, z=1.375, yaw=0, horizon=30, held=held)
+        world = World("hand", room, {o.object_id: o for o in (plate, oven)}, agent)
+        frame = Renderer(CameraSpec(300, 300, 90.0)).render(world, want_rgb=False)
+        class_ids = np.zeros(frame.instances.shape, dtype=np.uint8)
+        for instance_id, name in frame.legend.items():
+            class_ids[frame.instances == instance_id] = classes.id_of(name)
+        distances = pixel_distances(frame.depth, camera)
+        return held_type_in_view(class_ids, distances, classes.types, pickupable, wanted, CONFIG, 0.004)
+
+    assert hand_reads(plate.object_id, "Knife") == "Plate"
+    assert hand_reads(plate.object_id, "Plate") is None  # the hand shows what was wanted
+    assert hand_reads(None, "Knife") is None  # nothing in hand: the microwave ahead is no held thing
