@@ -147,13 +147,9 @@ def focused_pose(
     put something on: one object type drawn uniformly (so rare types are as common as mugs), one instance,
     a reachable cell 0.5-1.5 m away, the yaw of the four nearest its direction and the look step nearest
     its elevation. None when the world has no small object with such a cell."""
-    by_type: dict[str, list[WorldObject]] = {}
-    for obj in world.objects.values():
-        if ontology.get(obj.object_type).pickupable and obj.parent_id is not None:
-            by_type.setdefault(obj.object_type, []).append(obj)
-    if not by_type:
+    obj = _random_pickupable(world, rng, ontology, resting_only=True)
+    if obj is None:
         return None
-    obj = rng.choice(by_type[rng.choice(sorted(by_type))])
     x, y, z = obj.center
     near = []
     for cell in cells:
@@ -175,15 +171,24 @@ def hold_random_object(world: World, rng: random.Random, ontology: Ontology) -> 
     """Put a random pickupable object in the agent's hand (one type drawn uniformly, then one instance):
     the renderer draws it in front of the camera, as AI2-THOR shows what the agent carries. None when the
     world has nothing pickupable. The caller empties the hand (``world.agent.held = None``) afterwards."""
+    obj = _random_pickupable(world, rng, ontology, resting_only=False)
+    if obj is not None:
+        world.agent.held = obj.object_id
+    return obj
+
+
+def _random_pickupable(
+    world: World, rng: random.Random, ontology: Ontology, *, resting_only: bool
+) -> WorldObject | None:
+    """One pickupable object: a type drawn uniformly (so rare types are as common as mugs), then one of
+    its instances; ``resting_only`` keeps to objects lying on or in something. None if there is none."""
     by_type: dict[str, list[WorldObject]] = {}
     for obj in world.objects.values():
-        if ontology.get(obj.object_type).pickupable:
+        if ontology.get(obj.object_type).pickupable and (obj.parent_id is not None or not resting_only):
             by_type.setdefault(obj.object_type, []).append(obj)
     if not by_type:
         return None
-    obj = rng.choice(by_type[rng.choice(sorted(by_type))])
-    world.agent.held = obj.object_id
-    return obj
+    return rng.choice(by_type[rng.choice(sorted(by_type))])
 
 
 def render_frames(

@@ -316,7 +316,12 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self._rule_out_click(subgoal.obj, click, f"what it picked up there looks like a {looks_like}")
         self.state.belief.held = looks_like
         self.state.attempt = None
-        repaired = repair_plan(self.plan[self.pointer :], self.onto, self.state.belief)
+        self._repair_rest(self.plan[self.pointer :])
+
+    def _repair_rest(self, rest: Sequence[Subgoal]) -> None:
+        """Repair ``rest`` from the current belief and make it the plan from the pointer on, logging each
+        fix at its place in the whole plan."""
+        repaired = repair_plan(rest, self.onto, self.state.belief)
         self.repairs.extend(
             RepairEvent(e.rule, e.index + self.pointer, e.reason, e.removed, e.inserted) for e in repaired.log
         )
@@ -424,16 +429,10 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self.state.attempt = None
         if outcome.question is not None:
             self.question = outcome.question
-        rest = self.plan[self.pointer + 1 :]
-        repaired = repair_plan(rest, self.onto, self.state.belief)
-        offset = self.pointer
         self.repairs.append(
-            RepairEvent("subgoal-failed", offset, outcome.reason, removed=(subgoal,), inserted=())
+            RepairEvent("subgoal-failed", self.pointer, outcome.reason, removed=(subgoal,), inserted=())
         )
-        self.repairs.extend(
-            RepairEvent(e.rule, e.index + offset, e.reason, e.removed, e.inserted) for e in repaired.log
-        )
-        self.plan = self.plan[: self.pointer] + list(repaired.plan)
+        self._repair_rest(self.plan[self.pointer + 1 :])
         self.events.append(f"gave up {subgoal}: {outcome.reason}")
 
     def _before_front(self, obj: str, chosen: VisibleInstance) -> bool:

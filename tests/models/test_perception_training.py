@@ -18,6 +18,7 @@ from harness.camera import CameraSpec
 from harness.perception_data import render_frames
 from harness.render import Frame, Renderer
 from harness.worldgen import WorldGenConfig, generate_world
+from models.perception.dataset import FrameArrays, load_frames
 from models.perception.network import load_checkpoint, read_info
 from models.perception.train import STATE_FILE, TrainConfig, train
 from symbolic.ontology import load_ontology
@@ -82,19 +83,23 @@ def test_a_run_can_start_from_an_exported_checkpoint(
         train(TrainConfig(**{**config.__dict__, "widths": (4, 4, 4, 4, 8), "run_dir": tmp_path / "other"}))
 
 
-def test_focused_frames_show_a_small_object_from_near(tmp_path: Path) -> None:
-    """Frames taken as an agent about to handle something: most show a pickupable object, many pixels of it
-    (uniform poses mostly show walls and floor)."""
-    from models.perception.dataset import load_frames
-
+def _frames_and_pickupable_labels(root: Path) -> tuple[FrameArrays, np.ndarray]:
+    """Frames rendered at 96 px into ``root``, and the labels of the pickupable classes."""
     ontology = load_ontology()
-    render_frames(
-        tmp_path, "train", worlds=4, per_world=4, camera=CameraSpec(96, 96, 90.0), seed=3, focus_share=1.0
-    )
-    frames = load_frames(tmp_path, 96, use_cache=False)
+    frames = load_frames(root, 96, use_cache=False)
     small = np.array(
         [i for i, name in enumerate(frames.classes) if name in ontology and ontology.get(name).pickupable]
     )
+    return frames, small
+
+
+def test_focused_frames_show_a_small_object_from_near(tmp_path: Path) -> None:
+    """Frames taken as an agent about to handle something: most show a pickupable object, many pixels of it
+    (uniform poses mostly show walls and floor)."""
+    render_frames(
+        tmp_path, "train", worlds=4, per_world=4, camera=CameraSpec(96, 96, 90.0), seed=3, focus_share=1.0
+    )
+    frames, small = _frames_and_pickupable_labels(tmp_path)
     shown = [int(np.isin(labels, small).sum()) for labels in frames.labels]
     assert sum(count >= 30 for count in shown) >= 0.75 * len(shown), shown
 
@@ -102,16 +107,10 @@ def test_focused_frames_show_a_small_object_from_near(tmp_path: Path) -> None:
 def test_held_frames_show_a_pickupable_object_before_the_camera(tmp_path: Path) -> None:
     """An agent carries something for half a task: with held_share 1 every frame shows a pickupable object
     within half a metre of the camera, labelled with its type (what the networks must learn to see)."""
-    from models.perception.dataset import load_frames
-
-    ontology = load_ontology()
     render_frames(
         tmp_path, "train", worlds=3, per_world=3, camera=CameraSpec(96, 96, 90.0), seed=4, held_share=1.0
     )
-    frames = load_frames(tmp_path, 96, use_cache=False)
-    small = np.array(
-        [i for i, name in enumerate(frames.classes) if name in ontology and ontology.get(name).pickupable]
-    )
+    frames, small = _frames_and_pickupable_labels(tmp_path)
     depth_m = frames.depth_mm.astype(np.float32) / 1000.0
     held = [
         int((np.isin(labels, small) & (depth > 0) & (depth < 0.5)).sum())
