@@ -38,10 +38,10 @@ class MakeRoom(ContainerSearch):
             return False
         if subgoal.obj in SPREAD_OUT_RECEPTACLES:
             return False  # a counter is not full: another spot or another part of it will do
-        blocker = self._blocker(subgoal.obj, held, click)
-        if blocker is None:
+        found = self._blocker(subgoal.obj, held, click)
+        if found is None:
             return False
-        kind = self.view.percept.instance_types.get(blocker.instance_id, "")
+        kind, blocker = found
         spare = self._spare_surface(held, kind)
         if spare is None:
             return False
@@ -67,16 +67,18 @@ class MakeRoom(ContainerSearch):
         self.events.append(f"make room: {reason}")
         return True
 
-    def _blocker(self, receptacle: str, held: str, click: Click) -> VisibleInstance | None:
-        """The largest carryable thing in view inside the clicked receptacle, not one the plan put there
-        (in view is enough: the far end of a basin may lie beyond reach from where it was clicked)."""
+    def _blocker(self, receptacle: str, held: str, click: Click) -> tuple[str, VisibleInstance] | None:
+        """The type and instance of the largest carryable thing in view inside the clicked receptacle, not
+        one the plan put there (in view is enough: the far end of a basin may lie beyond reach from where it
+        was clicked). The type comes from the class mask it was found in: a learned segmenter's instance
+        ids (0 for unsplit pixels) need not be in the frame's legend."""
         box = self._extent_of(click.instance_id)
         if box is None:
             return None
         (x0, y0, z0), (x1, y1, z1) = box
         above = ((x0, y0, z0), (x1, y1 + 0.3, z1))  # what lies in a basin or on a plate rises above its rim
         in_hand = self.state.memory.instance.get(held)  # held far out in front, it may show in the box
-        found = []
+        found: list[tuple[str, VisibleInstance]] = []
         for object_type in sorted(set(self.view.percept.instance_types.values())):
             if object_type not in self.onto:
                 continue
@@ -86,8 +88,10 @@ class MakeRoom(ContainerSearch):
             if receptacle in self.state.memory.placed_into.get(object_type, []):
                 continue  # the plan put it there (a sandwich's bread on its plate)
             seen = self.view.visible(object_type)
-            found += [v for v in seen if v.instance_id != in_hand and in_box(v.point, above, 0.05)]
-        return max(found, key=lambda v: v.pixels, default=None)
+            found += [
+                (object_type, v) for v in seen if v.instance_id != in_hand and in_box(v.point, above, 0.05)
+            ]
+        return max(found, key=lambda pair: pair[1].pixels, default=None)
 
     def _spare_surface(self, held: str, blocker: str) -> str | None:
         """A mapped open surface that takes both the held object and the obstruction, nearest first."""
