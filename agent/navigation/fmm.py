@@ -174,10 +174,27 @@ def lattice_cost_field(
     phi = np.ones(open_.shape)
     phi[::2, ::2][goal_nodes] = -1.0
     half_step = GRID_STEP_M / 2.0
+    if not _goal_has_open_border(phi < 0, open_):
+        # every goal node is walled in (or everything open is goal): nothing else can reach one, and
+        # scikit-fmm refuses a field without a zero level set
+        cost = np.ma.masked_all(goal_nodes.shape, dtype=float)
+        cost[goal_nodes] = 0.0
+        return cost
     travel = skfmm.travel_time(np.ma.MaskedArray(phi, ~open_), speed, dx=half_step, order=1)
     cost = np.ma.asarray(travel)[::2, ::2] + half_step / 2.0  # [Lx, Lz]
     cost[goal_nodes] = 0.0
     return cost
+
+
+def _goal_has_open_border(goal: np.ndarray, open_: np.ndarray) -> bool:
+    """Whether some goal raster cell has an open non-goal 4-neighbour (where the zero level set lies)."""
+    outside = open_ & ~goal
+    return bool(
+        (goal[1:, :] & outside[:-1, :]).any()
+        or (goal[:-1, :] & outside[1:, :]).any()
+        or (goal[:, 1:] & outside[:, :-1]).any()
+        or (goal[:, :-1] & outside[:, 1:]).any()
+    )
 
 
 def move_costs(graph: LatticeGraph, cost: np.ndarray) -> np.ndarray:

@@ -279,6 +279,19 @@ def test_fmm_reports_a_goal_behind_a_closed_wall_as_unreachable() -> None:
     assert (decision.action, decision.reason, decision.distance_m) == (None, "unreachable", math.inf)
 
 
+def test_fmm_reports_a_goal_in_a_pocket_with_room_for_the_body_but_no_move_as_unreachable() -> None:
+    """A boxed-in spot where the robot fits but cannot take one step: no field can be built toward it
+    (scikit-fmm finds no zero level set), and the answer is unreachable, not an error."""
+    obstacles = room(160)
+    lo, hi = 112, 128  # walls around cell (120, 120), a lattice node
+    obstacles[lo, lo : hi + 1] = obstacles[hi, lo : hi + 1] = True
+    obstacles[lo : hi + 1, lo] = obstacles[lo : hi + 1, hi] = True
+    decision = FmmNavigator().next_action(
+        seen(obstacles), frame_for(obstacles.shape), pose_at((50, 50)), spot((160, 160), (120, 120))
+    )
+    assert (decision.action, decision.reason) == (None, "unreachable")
+
+
 @pytest.mark.parametrize("gap, passable", [((57, 63), False), ((54, 66), True)])
 def test_obstacle_dilation_closes_a_gap_too_narrow_for_the_body(gap: tuple[int, int], passable: bool) -> None:
     """0.3 m is less than the 0.4 m body; 0.6 m leaves a band on the lattice row j = 60 the agent uses."""
