@@ -12,7 +12,8 @@ succeeds when the target comes into view (the expert's sighting rule) within ``-
 2. Whole episodes (``--tfd N``): the agent service on the first N generated valid_unseen TfD games with
 the expert's subgoals and oracle perception, once per explorer (the session's ``explorer`` option); the
 explorer only acts while a target is unmapped, between the agent's look-around and its container search,
-so this is what the choice is worth to a user. Task SR decides the default; search success breaks ties.
+so this is what the choice is worth to a user. Task SR decides the default, then goal-condition SR (also
+what a user sees), then search success.
 
 Run: ``.venv/bin/python -m bench.goal_transformer_vs_frontier [--episodes 30] [--tfd 60] [--workers 2]``;
 writes ``bench/results/goal_transformer_vs_frontier.json``.
@@ -178,7 +179,9 @@ def main() -> None:
     if args.tfd:
         tasks = whole_episodes(args.tfd, args.workers, args.runs)
         result["tfd_oracle_subgoals"] = tasks
-        result["better"] = max(EXPLORERS, key=lambda name: (tasks[name]["sr"], *searches[name]))
+        result["better"] = max(
+            EXPLORERS, key=lambda name: (tasks[name]["sr"], tasks[name]["gc"], *searches[name])
+        )
     else:
         result["better"] = max(EXPLORERS, key=lambda name: searches[name])
     RESULTS.parent.mkdir(parents=True, exist_ok=True)

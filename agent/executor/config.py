@@ -48,7 +48,8 @@ seed's goal transformer (``agent.exploration_gt``); ``bench/goal_transformer_vs_
 compares them."""
 EXPLORERS: tuple[ExplorerName, ...] = ("frontier", "goal_transformer")
 DEFAULT_EXPLORER: ExplorerName = "frontier"
-"""The explorer sessions get unless they ask: the better one in ``bench/results/explorer_comparison.json``."""
+"""The explorer sessions get unless they ask: the better one in
+``bench/results/goal_transformer_vs_frontier.json`` (task SR, then goal conditions, then search success)."""
 
 
 @dataclass(frozen=True)
