@@ -304,14 +304,17 @@ class SessionMapView:
 
     def spot_cluster(self, point: tuple[float, float, float], radius_m: float) -> MapCluster:
         """A pseudo-cluster: the cells within ``radius_m`` of a world point at its height, for walking to a
-        remembered place where nothing of the type is mapped (an object put inside a toaster)."""
+        remembered place where nothing of the type is mapped (an object put inside a toaster). With no cell
+        that near, the map's cell nearest to the point: learned depth can place a remembered spot beyond
+        the map's edge."""
         frame = self.map.frame
         X, Z = self.map.shape
         xs_all = frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m
         zs_all = frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m
         cells = (xs_all[:, None] - point[0]) ** 2 + (zs_all[None, :] - point[2]) ** 2 <= radius_m**2
         if not cells.any():
-            cells[frame.world_to_cell(point[0], point[2])] = True
+            i, j = frame.world_to_cell(point[0], point[2])
+            cells[min(max(i, 0), X - 1), min(max(j, 0), Z - 1)] = True
         ii, jj = np.nonzero(cells)
         xs, zs = xs_all[ii], zs_all[jj]
         i, j = frame.world_to_cell(self.pose.x, self.pose.z)

@@ -422,3 +422,35 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
     assert hand_reads(plate.object_id, "Knife") == "Plate"
     assert hand_reads(plate.object_id, "Plate") is None  # the hand shows what was wanted
     assert hand_reads(None, "Knife") is None  # nothing in hand: the microwave ahead is no held thing
+
+
+# ----- remembered spots ---------------------------------------------------------------------------------
+
+
+def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapped_cell() -> None:
+    # Learned depth once put a container 4 m past the wall; walking back to it raised IndexError (a 500).
+    from agent.executor.mapview import SessionMapView
+    from agent.mapping import SemanticMap
+    from agent.perception import Percept
+
+    camera, pose = Camera(300, 300, 90.0), Pose(1.0, 1.0, 0.0, 30.0)
+    semantic_map = SemanticMap(camera, pose)
+    blank = np.zeros((300, 300), dtype=np.float32)
+    percept = Percept(blank + 1.0, blank > 0, blank.astype(np.uint8), blank.astype(np.int32), {})
+    view = SessionMapView(
+        semantic_map,
+        percept,
+        camera,
+        pose,
+        holding=False,
+        last_success=None,
+        ignored=[],
+        explore_attempts={},
+        click_config=CONFIG,
+    )
+    X, Z = semantic_map.shape
+    east_edge_x = semantic_map.frame.origin_x + X * semantic_map.frame.cell_m
+    cluster = view.spot_cluster((east_edge_x + 4.0, 0.9, 1.0), 0.1)
+    assert cluster.cells.sum() == 1
+    (i,), (j,) = cluster.ii, cluster.jj
+    assert (i, j) == (X - 1, semantic_map.world_to_cell(1.0, 1.0)[1])  # the same row, at the edge
