@@ -1,13 +1,19 @@
-"""One colour per object type, told apart from every type it can share a room with.
+"""One colour per object type: distinct from its room-mates always, from other types as far as colours allow.
 
 Our objects are boxes. AI2-THOR's knife and fork differ in shape; ours differ only in size and colour, so
 colour must carry what shape carries there, or learned perception (the JARVIS seed's segmentation, HLSM's
 U-Net) has nothing to learn from: a silver knife, a silver fork and a steel sink would be one class. Each
 type starts from its natural colour (``appearance.PALETTE``: tomatoes red, lettuce green) and keeps it when
-it is already distinct from the types that can appear in the same room; otherwise it moves to the nearest
-colour that is (a steel-blue knife, a bronze fork). Types are settled in a fixed order (room structure,
-then furniture, then appliances and small objects), so big things keep their natural look and the small
-ones adapt.
+it is already distinct; otherwise it moves to the nearest colour that is (a steel-blue knife, a bronze fork).
+Types are settled in a fixed order (room structure, then furniture, then appliances and small objects), so
+big things keep their natural look and the small ones adapt.
+
+Distinct from room-mates is a must. Distinct from types of other rooms is wanted too and kept wherever the
+candidate colours allow (every pair ends up at least 0.9 apart): a network sees one frame, not the room, and
+a desk and a dining table of one colour (they never share a room) could only be told apart by the rest of
+the room, which a close view does not show. AI2-THOR's desks and tables differ in shape in every room; the
+first palette, distinct within rooms only, left 55 types with a near twin elsewhere and capped the
+segmentation network's valid mIoU.
 
 "Distinct" is measured as a learner sees it under our lighting: chromaticity (the share of each channel)
 is what survives face shading (×0.45..1), the per-frame light gain and the per-instance tint (±7%), so it
@@ -94,6 +100,14 @@ def brownness(colours: np.ndarray) -> np.ndarray:
     return (colours[:, 0] - colours[:, 2]) / np.maximum(colours.sum(axis=1), 1e-3)
 
 
+def _clearance(features: np.ndarray, others: Sequence[RGB]) -> np.ndarray:
+    """float64 [K]: each feature row's distance to the nearest of ``others`` (inf when there are none)."""
+    if not others:
+        return np.full(len(features), np.inf)
+    near = _features(np.array(others, dtype=np.float64))
+    return np.linalg.norm(features[:, None] - near[None], axis=2).min(axis=1)
+
+
 def assign_colours(
     preferred: Mapping[str, RGB],
     groups: Sequence[frozenset[str]],
@@ -101,10 +115,11 @@ def assign_colours(
     max_brownness: Mapping[str, float] | None = None,
 ) -> dict[str, RGB]:
     """Each type in ``order`` keeps its preferred colour if it is distinct (distance ≥ 1) from every type
-    settled before it that shares a group; else it takes the nearest candidate colour that is, or failing
-    that the candidate farthest from its nearest neighbour. Types in no group must differ from all.
-    ``max_brownness``: per type, a bound on ``brownness`` the colour must keep (dishes that can get dirty
-    must not look like the brown dirt drawn on them)."""
+    settled before it; else it takes the nearest candidate colour that is. When no candidate is distinct
+    from all, distinct from the types that share a group with it (room-mates; types in no group count
+    everyone) is required and distance from the rest is maximised; failing even that, the candidate farthest
+    from its nearest room-mate. ``max_brownness``: per type, a bound on ``brownness`` the colour must keep
+    (dishes that can get dirty must not look like the brown dirt drawn on them)."""
     candidates = candidate_colours()
     candidate_features = _features(candidates)  # [K, 4]
     candidate_brownness = brownness(candidates)  # [K]
@@ -113,25 +128,26 @@ def assign_colours(
     everyone = frozenset(preferred)
     for name in order:
         mine = [g for g in groups if name in g] or [everyone]
-        neighbours = sorted({o for g in mine for o in g if o in settled and o != name})
+        mates = [settled[o] for o in sorted({o for g in mine for o in g if o in settled and o != name})]
+        others = [settled[o] for o in sorted(settled) if o != name]
         want = preferred[name]
         limit = limits.get(name, np.inf)
-        want_ok = float(brownness(np.array([want]))[0]) <= limit
-        if not neighbours and want_ok:
-            settled[name] = want
-            continue
-        near = _features(np.array([settled[o] for o in neighbours] or [want], dtype=np.float64))  # [M, 4]
-        if not neighbours:
-            near = np.full_like(near, np.inf)
         want_features = _features(np.array([want], dtype=np.float64))  # [1, 4]
-        if want_ok and np.linalg.norm(near - want_features, axis=1).min() >= 1.0:
+        want_ok = float(brownness(np.array([want]))[0]) <= limit
+        if want_ok and _clearance(want_features, others)[0] >= 1.0:
             settled[name] = want
             continue
-        clearance = np.linalg.norm(candidate_features[:, None] - near[None], axis=2).min(axis=1)  # [K]
-        clearance = np.where(candidate_brownness <= limit, clearance, -np.inf)
+        from_mates = np.where(candidate_brownness <= limit, _clearance(candidate_features, mates), -np.inf)
+        from_all = _clearance(candidate_features, others)
         to_want = np.linalg.norm(candidate_features - want_features, axis=1)  # [K]
-        fits = np.flatnonzero(clearance >= 1.0)
-        pick = fits[np.argmin(to_want[fits])] if fits.size else int(np.argmax(clearance - 1e-3 * to_want))
+        distinct = np.flatnonzero((from_mates >= 1.0) & (from_all >= 1.0))
+        mates_only = np.flatnonzero(from_mates >= 1.0)
+        if distinct.size:
+            pick = distinct[np.argmin(to_want[distinct])]
+        elif mates_only.size:
+            pick = mates_only[np.argmax(from_all[mates_only] - 1e-3 * to_want[mates_only])]
+        else:
+            pick = int(np.argmax(from_mates - 1e-3 * to_want))
         r, g, b = (float(v) for v in candidates[pick])
         settled[name] = (r, g, b)
     return settled

@@ -1,4 +1,5 @@
-"""Type colours: every two types that can share a room look different to a learner, and natural where free."""
+"""Type colours: types that can share a room look different to a learner, all others nearly so;
+natural where free."""
 
 from __future__ import annotations
 
@@ -26,23 +27,34 @@ def test_types_that_share_a_room_are_told_apart() -> None:
     assert not close, f"room-mates that look alike: {close[:10]}"
 
 
+def test_types_of_different_rooms_are_told_apart_as_far_as_colours_allow() -> None:
+    """A frame seldom shows which room it is in: a desk and a dining table of one colour (they never share
+    a room) would be one class to a segmentation network. The candidate colours cannot keep all 133 types
+    a full unit apart, but they do keep every pair close to it."""
+    colours = type_colours()
+    closest = min(
+        (colour_distance(colours[a], colours[b]), a, b) for a, b in itertools.combinations(sorted(colours), 2)
+    )
+    assert closest[0] >= 0.9, f"the closest pair: {closest}"
+
+
 def test_every_ontology_type_has_a_colour_in_range() -> None:
     colours = type_colours()
     assert set(colours) == set(load_ontology().types)
     assert all(0.0 <= channel <= 1.0 for rgb in colours.values() for channel in rgb)
 
 
-@pytest.mark.parametrize("kind", ["Wall", "Floor", "Apple", "TomatoSliced", "Sofa"])
+@pytest.mark.parametrize("kind", ["Wall", "Floor", "Apple", "StoveBurner", "GarbageCan"])
 def test_types_without_a_look_alike_keep_their_natural_colour(kind: str) -> None:
     assert type_colour(kind) == natural_colour(kind)
 
 
-def test_assignment_moves_only_the_later_of_two_look_alikes_in_one_room() -> None:
+def test_assignment_moves_the_later_of_two_look_alikes_whether_or_not_they_share_a_room() -> None:
     grey = (0.5, 0.5, 0.5)
     same_room = assign_colours({"A": grey, "B": grey}, [frozenset({"A", "B"})], ["A", "B"])
     assert same_room["A"] == grey and colour_distance(same_room["B"], grey) >= 1.0
     apart = assign_colours({"A": grey, "B": grey}, [frozenset({"A"}), frozenset({"B"})], ["A", "B"])
-    assert apart == {"A": grey, "B": grey}
+    assert apart["A"] == grey and colour_distance(apart["B"], grey) >= 1.0
 
 
 def test_colour_distance_counts_hue_more_than_brightness() -> None:
@@ -51,8 +63,8 @@ def test_colour_distance_counts_hue_more_than_brightness() -> None:
     assert colour_distance((0.5, 0.5, 0.5), (0.5, 0.5, 0.5)) == 0.0
 
 
-def _mean_chromaticity(kind: str) -> np.ndarray:
-    """Mean channel shares of a 20 cm box of ``kind`` on the floor, seen from 0.9 m looking down."""
+def _mean_rendered_colour(kind: str) -> tuple[float, float, float]:
+    """Mean drawn colour of a 20 cm box of ``kind`` on the floor, seen from 0.9 m looking down."""
     obj = WorldObject(make_object_id(kind, (0.0, 0.05, 0.9)), kind, (0.0, 0.05, 0.9), (0.2, 0.1, 0.2))
     world = World(
         "palette_test",
@@ -63,18 +75,20 @@ def _mean_chromaticity(kind: str) -> np.ndarray:
     frame = Renderer(CameraSpec(240, 240, 90.0)).render(world)
     assert frame.rgb is not None
     ids = [i for i, oid in frame.object_ids.items() if oid == obj.object_id]
-    rgb = frame.rgb[np.isin(frame.instances, ids)].astype(float)
+    rgb = frame.rgb[np.isin(frame.instances, ids)].astype(float) / 255.0
     assert len(rgb) > 50, f"the {kind} is not in view"
-    return (rgb / rgb.sum(axis=1, keepdims=True)).mean(axis=0)
+    r, g, b = (float(v) for v in rgb.mean(axis=0))
+    return r, g, b
 
 
-def test_rendered_cutlery_and_the_sink_differ_in_hue() -> None:
+def test_rendered_cutlery_and_the_sink_look_different() -> None:
     """The case that made the palette: silver knife, fork, spoon, butter knife and a steel sink were one
-    colour, which a segmentation network cannot tell apart on boxes."""
+    colour, which a segmentation network cannot tell apart on boxes. Drawn under the same light, each pair
+    stays distinct by the palette's own measure (hue, or a brightness step larger than shading makes)."""
     kinds = ["Knife", "Fork", "Spoon", "ButterKnife", "SinkBasin"]
-    shares = {kind: _mean_chromaticity(kind) for kind in kinds}
+    drawn = {kind: _mean_rendered_colour(kind) for kind in kinds}
     for a, b in itertools.combinations(kinds, 2):
-        assert np.abs(shares[a] - shares[b]).sum() > 0.04, (a, b, shares[a], shares[b])
+        assert colour_distance(drawn[a], drawn[b]) >= 0.9, (a, b, drawn[a], drawn[b])
 
 
 def test_things_that_get_dirty_are_never_brown_like_their_dirt() -> None:
