@@ -2,12 +2,12 @@
 
 The RGB frames exist to train and test learned perception (the JARVIS seed's Mask R-CNN and depth
 networks, HLSM's U-Nets), so they must be learnable (each AI2-THOR type has a stable colour and texture,
-told apart from the types it shares rooms with: ``harness.palette``, since boxes cannot show shape)
-without being trivially decodable: each instance is tinted slightly, textures vary with the world position
-of the hit point, faces are shaded by their normal, and every frame gets a random light gain and sensor
-noise. States that AI2-THOR shows visually are shown too: slices have a lighter cut colour, cooked food is
-darker and browner, dirty things have brown blotches, broken things cracks, filled containers their
-liquid, toggled-on appliances glow.
+told apart from the types it shares rooms with and nearly so from all others: ``harness.palette``, since
+boxes cannot show shape) without being trivially decodable: each instance is tinted slightly, textures vary
+with the world position of the hit point, faces are shaded by their normal, and every frame gets a random
+light gain and sensor noise. States that AI2-THOR shows visually are shown too: slices have a lighter cut
+colour, cooked food is darker and browner, dirty things have brown blotches, broken things cracks, filled
+containers their liquid, toggled-on appliances glow.
 """
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ PALETTE: dict[str, Material] = {
     "WateringCan": Material((0.30, 0.55, 0.45), "metal"),
 }
 """Natural colours of common AI2-THOR types; other types get ``hashed_material``. These are preferences:
-the colour a type is drawn with is ``type_colour`` (moved where room-mates would look alike)."""
+the colour a type is drawn with is ``type_colour`` (moved where another type would look alike)."""
 
 CUT_COLOURS: dict[str, RGB] = {
     "Apple": (0.96, 0.90, 0.70),
