@@ -69,9 +69,9 @@ def main() -> None:
                 root, "valid_unseen", args.worlds, 10, CameraSpec(FRAME_SIDE, FRAME_SIDE, 90.0), SEED
             )
         frames = load_frames(root, FRAME_SIDE, use_cache=args.frames is not None)
-        depth_dirs = [config.depth_checkpoint, *args.compare_depth]
+        depth_dirs = [config.networks.depth, *args.compare_depth]
         depth = [_depth_entry(d, evaluate_model(load_checkpoint(d), frames)) for d in depth_dirs]
-        seg = evaluate_model(load_checkpoint(config.segmentation_checkpoint), frames)
+        seg = evaluate_model(load_checkpoint(config.networks.segmentation), frames)
     result = {
         "frames": {
             "source": str(args.frames or "rendered valid_unseen"),
@@ -80,7 +80,7 @@ def main() -> None:
         },
         "depth": depth[0],
         "depth_compared": depth[1:],
-        "segmentation": {"checkpoint": str(config.segmentation_checkpoint), **seg},
+        "segmentation": {"checkpoint": str(config.networks.segmentation), **seg},
         "bars": {
             "depth_abs_rel_max": DEPTH_ABS_REL_MAX,
             "depth_met": depth[0]["abs_rel"] <= DEPTH_ABS_REL_MAX,

@@ -119,7 +119,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     config = LearnedConfig()
-    models = load_learned_models(config.depth_checkpoint, config.segmentation_checkpoint)
+    models = load_learned_models(config.networks.depth, config.networks.segmentation)
     results: dict[str, object] = {
         "threads": args.threads,
         "machine": {"cpu": platform.processor() or platform.machine(), "cores_visible": os.cpu_count()},

@@ -57,8 +57,7 @@ class NetworkPaths:
 class LearnedConfig:
     """Where the networks are and how their outputs become a percept."""
 
-    depth_checkpoint: Path = DEFAULT_CHECKPOINTS / "depth"
-    segmentation_checkpoint: Path = DEFAULT_CHECKPOINTS / "segmentation"
+    networks: NetworkPaths = NetworkPaths()
     c1: float = 0.3  # HLSM eq. (5): trusted when W90 < c1 · E ...
     c2: float = 1.0  # ... or W90 < c2 · E on the current target's pixels
     target_probability: float = 0.5  # HLSM eq. (5): target pixels are those with [IS]_argC > 0.5
@@ -115,7 +114,7 @@ class LearnedPerception:
         self.camera = camera
         self.config = config
         self.classes = classes or load_class_index()
-        self.models = models or load_learned_models(config.depth_checkpoint, config.segmentation_checkpoint)
+        self.models = models or load_learned_models(config.networks.depth, config.networks.segmentation)
         self._oracle = OraclePerception(camera, classes=self.classes)
         network_classes = self.models.segmentation.config.classes
         self._to_agent_id = np.array(
@@ -214,12 +213,7 @@ def _network_input(rgb: np.ndarray, side: int) -> torch.Tensor:
 
 
 def _config(networks: NetworkPaths, depth: Source = "learned", classes: Source = "learned") -> LearnedConfig:
-    return LearnedConfig(
-        depth_checkpoint=networks.depth,
-        segmentation_checkpoint=networks.segmentation,
-        depth_source=depth,
-        classes_source=classes,
-    )
+    return LearnedConfig(networks=networks, depth_source=depth, classes_source=classes)
 
 
 def learned(camera: Camera, networks: NetworkPaths = NetworkPaths()) -> LearnedPerception:
