@@ -1,7 +1,8 @@
 """``python -m models.perception render-data|train|evaluate``: data, training and metrics of the U-Nets.
 
-- ``render-data --out DIR [--split train|valid_unseen] [--worlds N]``: runs the harness's frame renderer
-  (``python -m harness.perception_data frames``) in a subprocess, since ``models`` never imports the harness.
+- ``render-data --out DIR [--split train|valid_unseen] [--worlds N] ...``: runs the harness's frame renderer
+  (``python -m harness.perception_data frames``, whose ``--help`` lists the options) in a subprocess with the
+  arguments as given, since ``models`` never imports the harness.
 - ``train --task depth|segmentation --frames DIR --out CKPT [--valid DIR] [--steps N] ...``: trains or
   resumes (run state in ``--run-dir``, default ``runs/perception/TASK``), exports CKPT. ``--stop-at K``
   stops at step K of the ``--steps`` schedule; a rerun with another ``--side`` resumes at that side.
@@ -27,19 +28,11 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m models.perception", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
-    render = sub.add_parser("render-data", help="render frames from the harness into the dataset layout")
-    render.add_argument("--out", type=Path, required=True)
-    render.add_argument("--split", choices=("train", "valid_unseen"), default="train")
-    render.add_argument("--worlds", type=int, default=500)
-    render.add_argument("--per-world", type=int, default=12)
-    render.add_argument(
-        "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
+    sub.add_parser(
+        "render-data",
+        help="render frames from the harness into the dataset layout "
+        "(options: python -m harness.perception_data frames --help)",
     )
-    render.add_argument(
-        "--held-share", type=float, default=0.0, help="share of frames with a random object in the hand"
-    )
-    render.add_argument("--size", type=int, default=256)
-    render.add_argument("--seed", type=int, default=0)
 
     fit = sub.add_parser("train", help="train (or resume) a depth or segmentation network")
     fit.add_argument("--task", choices=("depth", "segmentation"), required=True)
@@ -84,15 +77,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    if args.command == "render-data":
-        command = [
-            sys.executable, "-m", "harness.perception_data", "frames", "--out", str(args.out),
-            "--split", args.split, "--worlds", str(args.worlds), "--per-world", str(args.per_world),
-            "--size", str(args.size), "--seed", str(args.seed), "--focus-share", str(args.focus_share),
-            "--held-share", str(args.held_share),
-        ]  # fmt: skip
-        return subprocess.call(command)
+    arguments = list(sys.argv[1:] if argv is None else argv)
+    if arguments[:1] == ["render-data"]:  # the harness's parser owns these options (and their --help)
+        return subprocess.call([sys.executable, "-m", "harness.perception_data", "frames", *arguments[1:]])
+    args = _parser().parse_args(arguments)
     if args.command == "train":
         config = TrainConfig(
             task=args.task,

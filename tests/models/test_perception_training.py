@@ -119,6 +119,23 @@ def test_held_frames_show_a_pickupable_object_before_the_camera(tmp_path: Path) 
     assert len(held) == 9 and min(held) >= 20, held
 
 
+def test_render_data_passes_every_option_to_the_harness_renderer(tmp_path: Path) -> None:
+    """``python -m models.perception render-data`` runs the harness's renderer with the options as given
+    (the card commands use --focus-share and --held-share), in a subprocess: models never import harness."""
+    from models.perception.__main__ import main
+
+    out = tmp_path / "frames"
+    code = main(
+        ["render-data", "--out", str(out), "--split", "valid_unseen", "--worlds", "1", "--per-world", "2"]
+        + ["--size", "64", "--seed", "5", "--focus-share", "0.5", "--held-share", "1.0"]
+    )
+    assert code == 0
+    meta = json.loads((out / "meta.json").read_text())
+    assert (meta["split"], meta["frames"], meta["camera"]["width"]) == ("valid_unseen", 2, 64)
+    assert (meta["seed"], meta["focus_share"], meta["held_share"]) == (5, 0.5, 1.0)
+    assert main(["render-data", "--out", str(tmp_path / "bad"), "--worlds", "many"]) != 0
+
+
 def test_harness_frames_follow_the_documented_layout(frames_dir: Path):
     meta = json.loads((frames_dir / "meta.json").read_text())
     assert meta["camera"] == {"width": 64, "height": 64, "hfov_deg": 90.0}
