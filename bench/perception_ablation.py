@@ -15,8 +15,9 @@ and listed.
   target, which the client does not know), or learned classes split into instances at the true depth's
   discontinuities with their legend. The service's clicks still hit whatever object is under the pixel.
 
-Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; writes
-``bench/results/perception_ablation.json``.
+Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
+--keep-other-settings`` measures some settings now and keeps the others the file holds for the same
+episodes. Writes ``bench/results/perception_ablation.json``.
 """
 
 from __future__ import annotations
@@ -156,6 +157,16 @@ def run_setting(setting: str, indices: Sequence[int], base_url: str, workers: in
     }
 
 
+def earlier_settings(path: Path, indices: Sequence[int]) -> dict[str, Any]:
+    """The settings a previous run wrote to ``path`` over the same episodes (empty if none or others)."""
+    if not path.is_file():
+        return {}
+    earlier = json.loads(path.read_text())
+    rows = earlier.get("settings", {})
+    same = all([e["index"] for e in row.get("episodes", [])] == list(indices) for row in rows.values())
+    return dict(rows) if earlier.get("split") == SPLIT and same else {}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m bench.perception_ablation", description=__doc__.splitlines()[0]
@@ -165,6 +176,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="episodes driven at once (2 cores)")
     parser.add_argument("--url", help="use a running service instead of starting one")
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument(
+        "--keep-other-settings",
+        action="store_true",
+        help="keep the settings --out already holds for the same episodes (run the settings in turns)",
+    )
     args = parser.parse_args(argv)
     indices, skipped = [], []
     for index in range(args.n):
@@ -179,6 +195,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         with running_service() as service:
             results = {s: run_setting(s, indices, service.base_url, args.workers) for s in args.settings}
+    if args.keep_other_settings:
+        results = {**earlier_settings(args.out, indices), **results}
+        results = {s: results[s] for s in SETTINGS if s in results}
     report: dict[str, Any] = {
         "split": SPLIT,
         "camera": [DEFAULT_CAMERA.width, DEFAULT_CAMERA.height, DEFAULT_CAMERA.hfov_deg],
