@@ -14,6 +14,9 @@ and listed.
   fail HLSM eq. (5)'s ``W90 < c1·E`` zeroed (no reading; the looser target threshold c2 needs the current
   target, which the client does not know), or learned classes split into instances at the true depth's
   discontinuities with their legend. The service's clicks still hit whatever object is under the pixel.
+  The oracle channels carry no W90, so under ``learned_depth`` the service judges reach by the expected
+  depth, where its learned back-end uses the interval's far end: that row's "too far to interact" failures
+  overstate what learned depth costs a ``learned`` session.
 
 Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
 --keep-other-settings`` measures some settings now and keeps the others the file holds for the same
