@@ -107,16 +107,21 @@ def read_depth_m(root: Path, name: str) -> np.ndarray:
     return image.astype(np.float32) * np.float32(0.001)
 
 
-def read_labels(root: Path, name: str, index: dict[str, int], ontology: Ontology) -> np.ndarray:
-    """uint8 [H, W] class labels from the instance ids and their legend (unknown types -> IGNORE_LABEL)."""
+def read_instances(root: Path, name: str) -> tuple[np.ndarray, dict[int, str]]:
+    """int32 [H, W] instance ids and their legend (id -> type name, as the frame's JSON says)."""
     path = root / "instances" / f"{name}.png"
     ids = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if ids is None or ids.ndim != 2:
         raise ValueError(f"{path} must be a single-channel PNG of instance ids")
     legend = json.loads((root / "instances" / f"{name}.json").read_text())
+    return ids.astype(np.int32), {int(key): str(type_name) for key, type_name in legend.items()}
+
+
+def read_labels(root: Path, name: str, index: dict[str, int], ontology: Ontology) -> np.ndarray:
+    """uint8 [H, W] class labels from the instance ids and their legend (unknown types -> IGNORE_LABEL)."""
+    ids, legend = read_instances(root, name)
     table = np.zeros(int(ids.max(initial=0)) + 1, dtype=np.uint8)  # ids without a legend entry: nothing
-    for key, type_name in legend.items():
-        instance_id = int(key)
+    for instance_id, type_name in legend.items():
         if instance_id >= len(table):
             continue
         try:

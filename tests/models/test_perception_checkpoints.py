@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 import models
@@ -19,7 +18,7 @@ from harness.render import Renderer
 from harness.splits import world_seed
 from harness.worldgen import WorldGenConfig, generate_world
 from models.goal_transformer.model import load_goal_transformer
-from models.perception.dataset import frame_names, read_depth_m, read_rgb
+from models.perception.dataset import frame_names, read_depth_m, read_instances, read_rgb
 from symbolic.ontology import load_ontology
 
 CHECKPOINTS = Path(models.__file__).resolve().parent / "checkpoints"
@@ -106,9 +105,7 @@ def test_segmentation_names_most_objects_an_agent_is_about_to_handle_as_the_harn
     named, objects = 0, 0
     for name in frame_names(tmp_path):
         rgb, depth = read_rgb(tmp_path, name), read_depth_m(tmp_path, name)
-        ids = cv2.imread(str(tmp_path / "instances" / f"{name}.png"), cv2.IMREAD_UNCHANGED).astype(np.int32)
-        legend_text = (tmp_path / "instances" / f"{name}.json").read_text()
-        legend = {int(k): v for k, v in json.loads(legend_text).items()}
+        ids, legend = read_instances(tmp_path, name)
         truth = oracle.perceive(Observation(depth=depth, instances=ids, legend=legend), target_type=None)
         seen = learned.perceive(Observation(rgb=rgb), target_type=None)
         for instance_id, object_type in legend.items():
