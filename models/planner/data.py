@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from models.planner.text import format_instruction, format_planner_input
+from models.planner.text import COMMANDER_MARK, format_instruction, format_planner_input, speaker_mark
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import (
     Subgoal,
@@ -225,7 +225,10 @@ def teach_continuations(
     The agent re-plans a TfD session when its plan runs out or fails (the seed's Eq. (1) with the history
     it has done); without these examples the model would never have seen a whole dialogue after <HIS>.
     Histories are each EDH instance's cut of the same game (and the whole plan, whose future is empty);
-    a history that is not a prefix of the game's TfD plan is skipped.
+    a history that is not a prefix of the game's TfD plan is skipped. Each cut with something left is also
+    given with the dialogue cut after the commander's first request (origin ``teach:brief_continuation``): a
+    commander bot or a curl user states the task once, and a long dialogue must not be the only sign that
+    work remains, or a short request with a history reads as finished.
     """
     report = report if report is not None else BuildReport()
     tfd: dict[str, tuple[list[tuple[str, str]], list[Subgoal], str]] = {}
@@ -253,21 +256,39 @@ def teach_continuations(
                 continue
             if history:
                 cuts.append((f"{stem}.{path.stem.split('.')[-1]}", history))
+        brief = _through_first_request(turns)
         for suffix, history in cuts:
             if plan[: len(history)] != history:
                 report.skip("teach:tfd_continuation", f"{suffix}: its history is not a prefix of the plan")
                 continue
-            examples.append(
-                PlannerExample(
-                    example_id=f"{suffix}.continued",
-                    source=format_planner_input(turns, history),
-                    target=format_subgoals(plan[len(history) :]),
-                    task_type=task_types[game_id],
-                    origin="teach:tfd_continuation",
+            left = plan[len(history) :]
+            variants = [("continued", turns, "teach:tfd_continuation")]
+            if left and brief != turns:
+                variants.append(("brief", brief, "teach:brief_continuation"))
+            for name, said, origin in variants:
+                examples.append(
+                    PlannerExample(
+                        example_id=f"{suffix}.{name}",
+                        source=format_planner_input(said, history),
+                        target=format_subgoals(left),
+                        task_type=task_types[game_id],
+                        origin=origin,
+                    )
                 )
-            )
-            report.kept["teach:tfd_continuation"] += 1
+                report.kept[origin] += 1
     return examples
+
+
+REQUEST_MIN_WORDS = 5
+"""A commander turn this long or longer states the task; shorter ones are greetings ("How's it going?")."""
+
+
+def _through_first_request(turns: Sequence[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The turns up to and including the commander's first request (all of them if there is none)."""
+    for index, (speaker, text) in enumerate(turns):
+        if speaker_mark(speaker) == COMMANDER_MARK and len(text.split()) >= REQUEST_MIN_WORDS:
+            return list(turns[: index + 1])
+    return list(turns)
 
 
 def handwritten_examples(path: Path, ontology: Ontology) -> list[PlannerExample]:
@@ -354,7 +375,9 @@ def build_planner_datasets(
 ) -> BuildReport:
     """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it) and TEACh-format instances
     (when ``teach_root`` is given). Valid splits never enter training; ``teach_repeat`` repeats the TEACh
-    training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions;
+    training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions, except those
+    with nothing left to do (a finished game), which are kept once: repeated, they taught the model to stop
+    planning when the dialogue had not asked it to;
     ``high_descs_per_trajectory`` caps ALFRED's step-by-step style in training (evaluation keeps all)."""
     report = BuildReport()
     train: list[PlannerExample] = []
@@ -378,7 +401,7 @@ def build_planner_datasets(
             if is_dev(example.example_id.split(".")[0]):
                 dev.append(example)
             else:
-                train += [example] * teach_repeat
+                train += [example] * (teach_repeat if example.target else 1)
         for split in ("valid_seen", "valid_unseen"):
             for kind in ("edh", "tfd"):
                 examples = teach_examples(teach_root, split, ontology, kinds=(kind,), report=report)

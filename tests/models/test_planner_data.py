@@ -197,3 +197,48 @@ def test_the_handwritten_dialogues_do_not_use_the_generators_wording() -> None:
     assert not shared, f"three-word phrases also in the generator's banks: {sorted(shared)}"
     unseen = ours - bank_words
     assert len(unseen) / len(ours) >= 0.6, f"only {len(unseen)} of {len(ours)} words are new to the banks"
+
+
+def test_finished_games_are_not_repeated_with_the_other_dialogue_examples(tmp_path: Path) -> None:
+    root = tmp_path / "teach"
+    for kind in ("edh", "tfd"):
+        (root / f"{kind}_instances" / "train").mkdir(parents=True)
+    game = next(f"g{i}" for i in range(100) if not is_dev(f"g{i}"))
+    plan = ["Navigate", "Mug", "Pickup", "Mug", "Navigate", "CoffeeMachine", "Place", "CoffeeMachine"]
+    tfd = {"game_id": game, "dialog_history": [["Commander", "make coffee"]], "future_subgoals": plan}
+    (root / "tfd_instances" / "train" / f"{game}.tfd0.json").write_text(json.dumps(tfd))
+    build_planner_datasets(None, root, DatasetFiles(tmp_path / "out"), load_ontology(), teach_repeat=3)
+    train = read_examples(DatasetFiles(tmp_path / "out").train)
+    targets = [e.target for e in train]
+    assert targets.count("") == 1  # the finished game, once
+    assert targets.count("Navigate Mug, Pickup Mug, Navigate CoffeeMachine, Place CoffeeMachine") == 3
+
+
+def test_a_cut_with_work_left_is_also_taught_after_the_first_request_alone(tmp_path: Path) -> None:
+    """A short request with a history is not a finished game: the same cut is given with the dialogue up to
+    the commander's first request (greetings before it kept), the same future as the whole dialogue's."""
+    root = tmp_path / "teach"
+    for kind in ("edh", "tfd"):
+        (root / f"{kind}_instances" / "train").mkdir(parents=True)
+    plan = ["Navigate", "Mug", "Pickup", "Mug", "Navigate", "CoffeeMachine", "Place", "CoffeeMachine"]
+    turns = [
+        ["Commander", "hi there"],
+        ["Commander", "please make me a cup of coffee"],
+        ["Driver", "where is the mug?"],
+        ["Commander", "in the sink"],
+        ["Commander", "that's all, thanks"],
+    ]
+    tfd = {"game_id": "abc_0001", "dialog_history": turns, "future_subgoals": plan}
+    (root / "tfd_instances" / "train" / "abc_0001.tfd0.json").write_text(json.dumps(tfd))
+    (root / "edh_instances" / "train" / "abc_0001.edh2.json").write_text(json.dumps(edh_instance()))
+    report = BuildReport()
+    examples = {e.example_id: e for e in teach_continuations(root, "train", load_ontology(), report)}
+    assert set(examples) == {
+        "abc_0001.tfd0.end.continued",
+        "abc_0001.tfd0.edh2.continued",
+        "abc_0001.tfd0.edh2.brief",
+    }
+    brief = examples["abc_0001.tfd0.edh2.brief"]
+    assert brief.source == "<COM> hi there <COM> please make me a cup of coffee <HIS> Pickup Mug"
+    assert brief.target == examples["abc_0001.tfd0.edh2.continued"].target
+    assert (brief.origin, report.kept["teach:brief_continuation"]) == ("teach:brief_continuation", 1)
