@@ -28,8 +28,8 @@ EDH: dict[str, Any] = {
     "instance_id": "0a1b2c3d4e5f6a7b_0001.edh1",
     "pred_start_idx": 4,
     "dialog_history": [
-        # Something is left to do after the history (four steps are driven below); with a bare "the table"
-        # the default planner decides nothing is left (a known weakness, in its model card).
+        # Something is left to do after the history (four steps are driven below); planners that read this
+        # short request after Pickup Mug as finished stopped at once here (the planner card's second builds).
         ["Commander", "Hello, put the mug on the dining table please."],
         ["Driver", "ok"],
         ["Driver", " "],
