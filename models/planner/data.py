@@ -376,8 +376,8 @@ def build_planner_datasets(
     """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it) and TEACh-format instances
     (when ``teach_root`` is given). Valid splits never enter training; ``teach_repeat`` repeats the TEACh
     training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions, except those
-    with nothing left to do (a finished game), which are kept once: repeated, they taught the model to stop
-    planning when the dialogue had not asked it to;
+    with nothing left to do (a finished game), which are kept once: repeated, a schedule trained on them
+    planned nothing for a request with work left (the planner's model card);
     ``high_descs_per_trajectory`` caps ALFRED's step-by-step style in training (evaluation keeps all)."""
     report = BuildReport()
     train: list[PlannerExample] = []
