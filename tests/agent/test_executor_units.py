@@ -11,11 +11,13 @@ from executor_support import kitchen, observation, simulator
 from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
 from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
 from agent.executor.looks import StainConfig, looks, stained_share
+from agent.executor.mapview import SessionMapView
 from agent.executor.replay import holding_before
 from agent.executor.state import Attempt, FailedClick
 from agent.executor.success import instance_colour
 from agent.geometry import Camera, Pose
-from agent.perception import Observation
+from agent.mapping import SemanticMap
+from agent.perception import Observation, Percept
 from agent.session import FrameAlignment
 from harness.simulator import Simulator
 from harness.world import WorldObject
@@ -429,10 +431,6 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
 
 def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapped_cell() -> None:
     # Learned depth once put a container 4 m past the wall; walking back to it raised IndexError (a 500).
-    from agent.executor.mapview import SessionMapView
-    from agent.mapping import SemanticMap
-    from agent.perception import Percept
-
     camera, pose = Camera(300, 300, 90.0), Pose(1.0, 1.0, 0.0, 30.0)
     semantic_map = SemanticMap(camera, pose)
     blank = np.zeros((300, 300), dtype=np.float32)
