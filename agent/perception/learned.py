@@ -3,12 +3,14 @@
 The JARVIS seed's Visual Semantic module with HLSM's perception step (§4.2, A.3): the depth U-Net gives a
 distribution over depth bins per pixel, whose expectation is the depth and whose 90% interval width W90
 decides, with equation (5), which pixels the map may trust (c1 = 0.3; c2 = 1.0 on pixels where the current
-subgoal's class has probability over 0.5). The segmentation U-Net's class probabilities enter the map as
+subgoal's class has probability over 0.5). The segmentation network's class probabilities (its U-Net's
+and its per-pixel colour expert's, ``models/perception/colour.py``) enter the map as
 their argmax (the map keeps one class per voxel), after dropping to "unknown" the pixels whose top class
 is less likely than ``min_class_probability``: an unsure pixel still blocks space but names nothing.
 Instances come from ``models.perception.instances`` (components per class cut at depth discontinuities).
 
-Both networks run at their own small input side (128 or 96 pixels; the frame is area-downscaled) and
+Both networks run at their own small input side (as shipped: 96 pixels for depth, 192 for segmentation;
+the frame is area-downscaled) and
 their outputs are resized back to the camera's size by nearest neighbour, to fit a step into the CPU
 budget (measured by ``bench/perception_speed.py``; give torch one thread per serving process). They
 were trained on 90° frames (TEACh's camera): depth from a camera with another field of view is scaled

@@ -6,6 +6,8 @@
 - ``train --task depth|segmentation --frames DIR --out CKPT [--valid DIR] [--steps N] ...``: trains or
   resumes (run state in ``--run-dir``, default ``runs/perception/TASK``), exports CKPT. ``--stop-at K``
   stops at step K of the ``--steps`` schedule; a rerun with another ``--side`` resumes at that side.
+- ``add-colour --checkpoint CKPT --frames DIR --out CKPT2 [--valid DIR]``: fits the per-pixel colour
+  expert (``colour.py``, ``colour_fit.py``) of a segmentation checkpoint on pixels of the frames, exports.
 - ``evaluate --checkpoint CKPT --frames DIR [--json FILE]``: prints and writes the metrics.
 """
 
@@ -20,6 +22,7 @@ from pathlib import Path
 
 import torch
 
+from models.perception.colour_fit import ColourFitConfig, add_colour_expert
 from models.perception.evaluate import evaluate_checkpoint, write_metrics
 from models.perception.train import TrainConfig, train
 
@@ -67,6 +70,26 @@ def _parser() -> argparse.ArgumentParser:
         "--init-from", type=Path, default=None, help="start from this exported checkpoint's weights"
     )
 
+    fit.add_argument(
+        "--colour-hidden",
+        type=int,
+        default=0,
+        help="segmentation: add a per-pixel colour branch of this width (models/perception/colour.py)",
+    )
+
+    colour = sub.add_parser("add-colour", help="fit the colour expert of a segmentation checkpoint")
+    colour.add_argument("--checkpoint", type=Path, required=True, help="segmentation checkpoint to extend")
+    colour.add_argument("--frames", type=Path, required=True, help="training frames folder")
+    colour.add_argument("--out", type=Path, required=True, help="checkpoint directory to write")
+    colour.add_argument("--valid", type=Path, default=None, help="validation frames (evaluated at the end)")
+    colour.add_argument("--valid-limit", type=int, default=None)
+    colour.add_argument("--eval-side", type=int, default=256)
+    colour.add_argument("--limit", type=int, default=None, help="use only the first N training frames")
+    colour.add_argument("--hidden", type=int, default=ColourFitConfig.hidden)
+    colour.add_argument("--pixels", type=int, default=ColourFitConfig.pixels)
+    colour.add_argument("--epochs", type=int, default=ColourFitConfig.epochs)
+    colour.add_argument("--threads", type=int, default=2)
+
     check = sub.add_parser("evaluate", help="metrics of a checkpoint on a frames folder")
     check.add_argument("--checkpoint", type=Path, required=True)
     check.add_argument("--frames", type=Path, required=True)
@@ -104,8 +127,25 @@ def main(argv: Sequence[str] | None = None) -> int:
             limit=args.limit,
             valid_limit=args.valid_limit,
             init_from=args.init_from,
+            colour_hidden=args.colour_hidden,
         )
         out = train(config)
+        print(f"checkpoint written to {out}")
+        print((out / "config.json").read_text())
+        return 0
+    if args.command == "add-colour":
+        torch.set_num_threads(args.threads)
+        fit = ColourFitConfig(hidden=args.hidden, pixels=args.pixels, epochs=args.epochs)
+        out = add_colour_expert(
+            args.checkpoint,
+            args.frames,
+            args.out,
+            fit,
+            limit=args.limit,
+            valid=args.valid,
+            valid_limit=args.valid_limit,
+            eval_side=args.eval_side,
+        )
         print(f"checkpoint written to {out}")
         print((out / "config.json").read_text())
         return 0

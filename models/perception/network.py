@@ -19,6 +19,7 @@ import torch
 from safetensors.torch import load_file, save_file
 from torch import nn
 
+from models.perception.colour import ColourBranch
 from models.perception.depth import DepthBins
 from models.perception.unet import UNet, UNetConfig
 
@@ -39,6 +40,7 @@ class PerceptionNetConfig:
     hfov_deg: float  # horizontal field of view of the training frames, degrees
     bins: DepthBins | None = None  # depth networks: what each output channel stands for
     classes: tuple[str, ...] = ()  # segmentation networks: output channel -> class name (0 = Nothing)
+    colour_hidden: int = 0  # width of the per-pixel colour branch (``colour.py``); 0: the U-Net alone
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
@@ -52,6 +54,8 @@ class PerceptionNetConfig:
             raise ValueError(f"a depth network needs bins matching its {self.unet.out_channels} outputs")
         if self.task == "segmentation" and len(self.classes) != self.unet.out_channels:
             raise ValueError(f"{len(self.classes)} classes for {self.unet.out_channels} segmentation outputs")
+        if self.colour_hidden < 0:
+            raise ValueError(f"colour_hidden must be 0 (no branch) or a width, got {self.colour_hidden}")
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -61,6 +65,7 @@ class PerceptionNetConfig:
             "hfov_deg": self.hfov_deg,
             "bins": None if self.bins is None else self.bins.to_dict(),
             "classes": list(self.classes),
+            "colour_hidden": self.colour_hidden,
         }
 
     @classmethod
@@ -73,28 +78,43 @@ class PerceptionNetConfig:
             hfov_deg=float(data["hfov_deg"]),
             bins=None if bins is None else DepthBins.from_dict(bins),
             classes=tuple(data.get("classes", ())),
+            colour_hidden=int(data.get("colour_hidden", 0)),
         )
 
 
 class PerceptionNet(nn.Module):
-    """uint8 RGB batch [B, S, S, 3] -> logits [B, out, S, S]; the normalisation travels with the weights."""
+    """uint8 RGB batch [B, S, S, 3] -> logits [B, out, S, S]; the normalisation travels with the weights.
+
+    With ``config.colour_hidden`` the per-pixel colour expert's logits are added to the U-Net's
+    (``colour.py``); ``expert_logits`` gives each expert's own, which training scores separately."""
 
     def __init__(self, config: PerceptionNetConfig) -> None:
         super().__init__()
         self.config = config
         self.unet = UNet(config.unet)
+        self.colour = (
+            ColourBranch(config.colour_hidden, config.unet.out_channels) if config.colour_hidden else None
+        )
 
     def forward(self, rgb: torch.Tensor) -> torch.Tensor:
         B, H, W, C = rgb.shape
         assert C == 3 and rgb.dtype == torch.uint8, (
             f"rgb must be uint8 [B, H, W, 3], got {rgb.dtype} {rgb.shape}"
         )
-        x = rgb.permute(0, 3, 1, 2).float() * (1.0 / 255.0)  # [B, 3, H, W] in [0, 1]
-        return self.unet((x - RGB_MEAN) / RGB_STD)
+        return self.forward_float(rgb.permute(0, 3, 1, 2).contiguous().float() * (1.0 / 255.0))
 
     def forward_float(self, rgb01: torch.Tensor) -> torch.Tensor:
         """The same on float images [B, 3, H, W] in [0, 1] (training feeds augmented floats)."""
-        return self.unet((rgb01 - RGB_MEAN) / RGB_STD)
+        image = (rgb01 - RGB_MEAN) / RGB_STD
+        if self.colour is None:
+            return self.unet(image)
+        return self.colour.joint_logits(self.unet.features(image), self.unet.head, rgb01)
+
+    def expert_logits(self, rgb01: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """Each expert's logits [B, out, H, W] for float images in [0, 1]: the U-Net's, then the colour
+        branch's when there is one."""
+        unet = self.unet((rgb01 - RGB_MEAN) / RGB_STD)
+        return (unet,) if self.colour is None else (unet, self.colour(rgb01))
 
 
 @dataclass

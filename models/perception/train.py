@@ -1,6 +1,7 @@
 """Train a depth or segmentation U-Net on frames on disk, resumably, on a couple of CPU cores.
 
-HLSM A.7.1: cross entropy against one-hot depth bins or classes, AUGMENT on half the examples and a
+HLSM A.7.1: cross entropy against one-hot depth bins or classes (a segmentation network with the colour
+branch scores each expert on its own: ``colour.py``), AUGMENT on half the examples and a
 horizontal flip on half. Optimiser AdamW with a short warm-up and cosine decay. The run state (weights,
 optimiser, step, random generators) is saved every ``save_every`` steps in ``run_dir``; running the same
 command again resumes from it. At the end the network is exported to ``out`` (safetensors, fp16, with
@@ -70,6 +71,7 @@ class TrainConfig:
     depth_l1_weight: float = 0.0  # weight of the relative L1 of the expected depth (0: cross entropy only)
     augment: AugmentConfig = field(default_factory=AugmentConfig)
     init_from: Path | None = None  # start a new run from an exported checkpoint's weights (fine-tuning)
+    colour_hidden: int = 0  # segmentation: width of the per-pixel colour branch (colour.py); 0 = none
 
     def network(self, classes: tuple[str, ...]) -> PerceptionNetConfig:
         if self.task == "depth":
@@ -77,7 +79,9 @@ class TrainConfig:
             unet = UNetConfig(3, bins.count, self.widths)
             return PerceptionNetConfig("depth", self.side, unet, self.hfov_deg, bins=bins)
         unet = UNetConfig(3, len(classes), self.widths)
-        return PerceptionNetConfig("segmentation", self.side, unet, self.hfov_deg, classes=classes)
+        return PerceptionNetConfig(
+            "segmentation", self.side, unet, self.hfov_deg, classes=classes, colour_hidden=self.colour_hidden
+        )
 
     def run_record(self) -> dict[str, Any]:
         record = asdict(self)
@@ -167,7 +171,9 @@ def train(config: TrainConfig) -> Path:
 
     ``config.stop_at`` stops early on the schedule of ``config.steps``; running again (with the same or a
     larger ``stop_at``, or none) continues. ``config.init_from`` starts a fresh run (no run state yet) from
-    an exported checkpoint of the same shape, e.g. to adapt it to newly rendered frames. The run state is
+    an exported checkpoint of the same shape, e.g. to adapt it to newly rendered frames, or of the same U-Net
+    without the colour branch this run adds (the branch starts at zero, so it starts as that network). The
+    run state is
     side-independent, so a run may resume at another ``side``; the stages are recorded in the checkpoint's
     run config.
     """
@@ -188,7 +194,10 @@ def train(config: TrainConfig) -> Path:
             raise ValueError(
                 f"{config.init_from} has another shape ({source.config.unet}) or class list than this run"
             )
-        model.load_state_dict(source.state_dict())
+        adds_colour = source.colour is None and model.colour is not None
+        if source.config.colour_hidden != net_config.colour_hidden and not adds_colour:
+            raise ValueError(f"{config.init_from} has a colour branch of another width than this run")
+        model.load_state_dict(source.state_dict(), strict=not adds_colour)
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     config.run_dir.mkdir(parents=True, exist_ok=True)
     state_path = config.run_dir / STATE_FILE
@@ -217,12 +226,13 @@ def train(config: TrainConfig) -> Path:
             group["lr"] = learning_rate(config, step)
         indices = rng.integers(len(frames), size=config.batch)
         rgb, depth, labels = make_batch(frames, indices, varies, rng, config.augment, config.crop)
-        logits = model.forward_float(rgb)
         if config.task == "depth":
             assert net_config.bins is not None
+            logits = model.forward_float(rgb)
             loss = depth_loss(logits, depth, net_config.bins, config.depth_target, config.depth_l1_weight)
-        else:
-            loss = segmentation_loss(logits, labels, weights)
+        else:  # each expert (the U-Net, the colour branch) a classifier of its own: colour.py
+            experts = model.expert_logits(rgb)
+            loss = sum((segmentation_loss(logits, labels, weights) for logits in experts), torch.zeros(()))
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()

@@ -100,6 +100,10 @@ class UNet(nn.Module):
         self.head = nn.Conv2d(outs[0], config.out_channels, 1)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
+        return self.head(self.features(image))  # [B, out, H, W]
+
+    def features(self, image: torch.Tensor) -> torch.Tensor:
+        """The last upscale block's output, [B, FULL_RES_WIDTH, H, W]: what the head reads."""
         B, C, H, W = image.shape
         divisor = self.config.divisor
         assert self.config.in_channels == C, f"expected {self.config.in_channels} channels, got {C}"
@@ -112,4 +116,4 @@ class UNet(nn.Module):
         skips.pop()  # the bottleneck is x itself
         for block in reversed(self.up):
             x = block(x, skips.pop())
-        return self.head(x)  # [B, out, H, W]
+        return x

@@ -18,6 +18,7 @@ from harness.camera import CameraSpec
 from harness.perception_data import render_frames
 from harness.render import Frame, Renderer
 from harness.worldgen import WorldGenConfig, generate_world
+from models.perception.__main__ import main as perception_cli
 from models.perception.dataset import FrameArrays, load_frames
 from models.perception.network import load_checkpoint, read_info
 from models.perception.train import STATE_FILE, TrainConfig, train
@@ -81,6 +82,75 @@ def test_a_run_can_start_from_an_exported_checkpoint(
         torch.testing.assert_close(tuned.state_dict()[name], tensor, msg=name)
     with pytest.raises(ValueError, match="another shape"):
         train(TrainConfig(**{**config.__dict__, "widths": (4, 4, 4, 4, 8), "run_dir": tmp_path / "other"}))
+
+
+def test_adding_the_colour_branch_starts_from_the_same_network_and_then_learns(
+    frames_dir: Path, tiny_models: dict[str, Path], tmp_path: Path
+) -> None:
+    """A segmentation U-Net fine-tuned with the colour branch predicts what it did until the branch trains;
+    the exported checkpoint records the branch and loads with it."""
+    source = load_checkpoint(tiny_models["segmentation"])
+    base = dict(
+        task="segmentation",
+        frames=frames_dir,
+        side=64,
+        widths=TINY,
+        batch=2,
+        warmup=1,
+        threads=1,
+        init_from=tiny_models["segmentation"],
+        colour_hidden=8,
+    )
+    frozen = load_checkpoint(
+        train(TrainConfig(**base, out=tmp_path / "a", run_dir=tmp_path / "ra", steps=1, lr=0.0))  # type: ignore[arg-type]
+    )
+    assert frozen.config.colour_hidden == 8 and frozen.colour is not None
+    rgb = torch.from_numpy(load_frames(frames_dir, 64, use_cache=False).rgb[:2])
+    with torch.inference_mode():
+        torch.testing.assert_close(frozen(rgb), source(rgb), atol=1e-2, rtol=1e-2)  # fp16 export
+    trained = load_checkpoint(
+        train(TrainConfig(**base, out=tmp_path / "b", run_dir=tmp_path / "rb", steps=5, lr=1e-2))  # type: ignore[arg-type]
+    )
+    assert trained.colour is not None and bool(trained.colour.out.weight.detach().any())
+    with pytest.raises(ValueError, match="colour branch of another width"):
+        train(
+            TrainConfig(
+                **{**base, "init_from": tmp_path / "b", "colour_hidden": 4},
+                out=tmp_path / "c",
+                run_dir=tmp_path / "rc",
+                steps=1,
+            )
+        )  # type: ignore[arg-type]
+
+
+def test_add_colour_fits_an_expert_that_names_more_pixels_and_keeps_the_unet(
+    frames_dir: Path, tiny_models: dict[str, Path], tmp_path: Path
+) -> None:
+    """``python -m models.perception add-colour``: the exported network names more pixels of the frames it
+    was fitted on than the barely trained U-Net alone, whose weights it keeps; config.json says how."""
+    out = tmp_path / "with_colour"
+    code = perception_cli(
+        [
+            "add-colour",
+            *("--checkpoint", str(tiny_models["segmentation"]), "--frames", str(frames_dir)),
+            *("--out", str(out), "--valid", str(frames_dir), "--eval-side", "64"),
+            *("--hidden", "16", "--pixels", "20000", "--epochs", "20", "--threads", "1"),
+        ]
+    )
+    assert code == 0
+    source, fitted = load_checkpoint(tiny_models["segmentation"]), load_checkpoint(out)
+    for name, tensor in source.unet.state_dict().items():
+        torch.testing.assert_close(fitted.unet.state_dict()[name], tensor, msg=name)
+    frames = load_frames(frames_dir, 64, use_cache=False)
+    labelled = frames.labels != 255
+    with torch.inference_mode():
+        before, after = (m(torch.from_numpy(frames.rgb)).argmax(1).numpy() for m in (source, fitted))
+    accuracy_before = (before == frames.labels)[labelled].mean()
+    accuracy_after = (after == frames.labels)[labelled].mean()
+    assert accuracy_after > accuracy_before + 0.05, (accuracy_before, accuracy_after)
+    _, info = read_info(out)
+    assert info.run["colour_fit"]["hidden"] == 16 and info.data["colour_count"] == len(frames)
+    assert info.metrics["count"] == len(frames) and "miou" in info.metrics
 
 
 def _frames_and_pickupable_labels(root: Path) -> tuple[FrameArrays, np.ndarray]:
