@@ -40,6 +40,8 @@ class ClickConfig:
     surface_band_m: float = (
         0.06  # Place: pixels within this of the highest reachable surface point are its top
     )
+    uncertain_top_quantile: float = 0.9  # with estimated depth, the top is measured from this quantile of
+    # the heights, not the highest: a few pixels of a neighbour's depth bled into the mask are the highest
 
 
 @dataclass(frozen=True)
@@ -199,11 +201,13 @@ def choose_click(
     purpose: ClickPurpose,
     config: ClickConfig,
     avoid: tuple[tuple[int, int], ...] = (),
+    exact_depth: bool = True,
 ) -> Click | None:
     """The click on ``instance``: an interior pixel of its reachable part (its top surface for ``surface``).
 
     ``avoid`` holds pixels of earlier failed clicks on it; the mask loses a disc around each so a retry
-    lands elsewhere. None when nothing reachable is left.
+    lands elsewhere. None when nothing reachable is left. Without ``exact_depth`` (a network's estimate)
+    the top is found below ``uncertain_top_quantile`` of the heights rather than below the highest.
     """
     H, W = instances.shape
     scale = max(H, W) / 300.0
@@ -215,7 +219,8 @@ def choose_click(
     if purpose == "surface":
         rows, cols = np.nonzero(region)
         heights = pixel_points(rows, cols, depth, camera, pose)[:, 1]  # [n] metres
-        top = heights >= float(heights.max()) - config.surface_band_m
+        highest = heights.max() if exact_depth else np.quantile(heights, config.uncertain_top_quantile)
+        top = heights >= float(highest) - config.surface_band_m
         if int(top.sum()) >= config.min_pixels:
             region = np.zeros_like(region)
             region[rows[top], cols[top]] = True

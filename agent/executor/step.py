@@ -161,4 +161,5 @@ class StepContext(ABC):
             purpose,
             self.cfg.click,
             avoid=avoid,
+            exact_depth=view.percept.depth_far is None,
         )

@@ -128,6 +128,49 @@ def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
     assert distances[click.row, click.col] <= CONFIG.reach_m
 
 
+def test_a_place_click_with_estimated_depth_ignores_a_few_pixels_that_read_too_high() -> None:
+    """A network's depth bleeds a neighbour's reading into a few of the counter's pixels, which then
+    look 0.1 m or more above its top: the highest of them is not the top, the bulk of the surface is."""
+    world = kitchen()
+    sim = simulator(world)
+    camera = Camera(300, 300, 90.0)
+    counter = world.of_type("CounterTop")[0]
+    _stand_facing(sim, counter)
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    counter_id = world.instance_ids[counter.object_id]
+    depth = obs.depth.copy()
+    rows, cols = np.nonzero(
+        (obs.instances == counter_id) & (pixel_distances(depth, camera) <= CONFIG.reach_m)
+    )
+    bled = np.random.default_rng(0).choice(len(rows), size=len(rows) // 30, replace=False)
+    depth[rows[bled], cols[bled]] *= 0.8  # nearer along a downward ray: higher
+    distances = pixel_distances(depth, camera)
+    usable = usable_pixels(distances, False, CONFIG)
+    (seen,) = visible_instances(
+        obs.instances == counter_id, obs.instances, distances, usable, depth, camera, obs.pose, CONFIG
+    )
+
+    fooled, robust = (
+        choose_click(
+            seen,
+            obs.instances,
+            distances,
+            usable,
+            depth,
+            camera,
+            obs.pose,
+            "surface",
+            CONFIG,
+            exact_depth=exact,
+        )
+        for exact in (True, False)
+    )
+
+    assert fooled is not None and fooled.point[1] > counter.top + 0.05  # the old rule clicks a bled pixel
+    assert robust is not None and abs(robust.point[1] - counter.top) < 0.02, (robust.point, counter.top)
+
+
 # ----- success inference --------------------------------------------------------------------------------
 
 SUCCESS = SuccessConfig()
