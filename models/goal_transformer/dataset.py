@@ -130,7 +130,7 @@ def collate(episodes: list[SearchEpisode], start_index: int) -> dict[str, np.nda
     K = max(len(e.subgoal_actions) for e in episodes)
     T = max(len(e) for e in episodes)
     F = episodes[0].features.shape[1]
-    batch = {
+    batch: dict[str, np.ndarray] = {
         "subgoal_actions": np.zeros((B, K), dtype=np.int64),
         "subgoal_objects": np.zeros((B, K), dtype=np.int64),
         "features": np.zeros((B, T, F), dtype=np.float32),

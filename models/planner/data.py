@@ -111,8 +111,8 @@ def alfred_examples(
             continue
         for number, annotation in enumerate(trajectory["turk_annotations"]["anns"]):
             for style in styles:
-                capped = style == "high_descs" and high_descs_per_trajectory is not None
-                if capped and number >= high_descs_per_trajectory:
+                cap = high_descs_per_trajectory if style == "high_descs" else None
+                if cap is not None and number >= cap:
                     continue
                 instruction = _alfred_instruction(annotation, style)
                 if not instruction:

@@ -192,7 +192,8 @@ def make_optimizer(planner: PlannerModel, recipe: Recipe) -> torch.optim.Optimiz
     (only the planner marks' rows learn) and the matrix no weight decay."""
     model, config = planner.model, recipe.train
     if recipe.name == "minilm-encdec" and recipe.minilm_decoder.freeze_word_embeddings:
-        marks = [planner.tokenizer.convert_tokens_to_ids(mark) for mark in PLANNER_MARKS]
+        marks = planner.tokenizer.convert_tokens_to_ids(list(PLANNER_MARKS))
+        assert isinstance(marks, list), "a list of tokens gives a list of ids"
         freeze_pretrained_word_embeddings(model, trainable_from=min(marks))
     exempt = no_decay_parameters(model)
     decayed = [p for p in model.parameters() if id(p) not in exempt]
