@@ -74,7 +74,8 @@ def _parser() -> argparse.ArgumentParser:
         "--colour-hidden",
         type=int,
         default=0,
-        help="segmentation: add a per-pixel colour branch of this width (models/perception/colour.py)",
+        help="segmentation: train a per-pixel colour expert of this width alongside (colour.py); "
+        "add-colour fits one to a trained network in minutes",
     )
 
     colour = sub.add_parser("add-colour", help="fit the colour expert of a segmentation checkpoint")

@@ -172,10 +172,9 @@ def train(config: TrainConfig) -> Path:
     ``config.stop_at`` stops early on the schedule of ``config.steps``; running again (with the same or a
     larger ``stop_at``, or none) continues. ``config.init_from`` starts a fresh run (no run state yet) from
     an exported checkpoint of the same shape, e.g. to adapt it to newly rendered frames, or of the same U-Net
-    without the colour branch this run adds (the branch starts at zero, so it starts as that network). The
-    run state is
-    side-independent, so a run may resume at another ``side``; the stages are recorded in the checkpoint's
-    run config.
+    without the colour branch this run adds (the branch starts at zero, so it starts as that network; fitting
+    it afterwards with ``colour_fit.py`` is far quicker). The run state is side-independent, so a run may
+    resume at another ``side``; the stages are recorded in the checkpoint's run config.
     """
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
