@@ -21,7 +21,7 @@ from torch.nn import functional as F
 from tqdm import tqdm
 
 from models.perception.dataset import IGNORE_LABEL, FrameArrays, load_frames
-from models.perception.evaluate import evaluate_model
+from models.perception.evaluate import validation_metrics
 from models.perception.network import PerceptionNet, fingerprint, load_checkpoint, read_info, save_checkpoint
 from models.perception.segmentation import class_weights
 
@@ -109,9 +109,6 @@ def add_colour_expert(
         "colour_fingerprint": fingerprint(frames.names, [frames.rgb, frames.labels]),
     }
     if valid is not None:
-        valid_frames = load_frames(valid, eval_side, limit=valid_limit)
-        with torch.inference_mode():
-            metrics = evaluate_model(fitted, valid_frames)
-        info.metrics = {"valid_frames": str(valid), "count": len(valid_frames), **metrics}
+        info.metrics = validation_metrics(fitted, valid, eval_side, valid_limit)
     save_checkpoint(out, fitted, info)
     return out

@@ -122,6 +122,17 @@ def evaluate_model(model: PerceptionNet, frames: FrameArrays) -> dict[str, Any]:
     return vars(segmentation_metrics(confusion, classes, frames.task_classes))
 
 
+def validation_metrics(
+    model: PerceptionNet, frames_root: Path, eval_side: int, limit: int | None
+) -> dict[str, Any]:
+    """The metrics a training run records in its checkpoint: which validation frames, how many, and the
+    task's metrics on them."""
+    frames = load_frames(frames_root, eval_side, limit=limit)
+    with torch.inference_mode():
+        metrics = evaluate_model(model, frames)
+    return {"valid_frames": str(frames_root), "count": len(frames), **metrics}
+
+
 def evaluate_checkpoint(
     checkpoint: Path, frames_root: Path, eval_side: int, limit: int | None
 ) -> dict[str, Any]:

@@ -101,7 +101,7 @@ class PerceptionNet(nn.Module):
         assert C == 3 and rgb.dtype == torch.uint8, (
             f"rgb must be uint8 [B, H, W, 3], got {rgb.dtype} {rgb.shape}"
         )
-        return self.forward_float(rgb.permute(0, 3, 1, 2).contiguous().float() * (1.0 / 255.0))
+        return self.forward_float(rgb.permute(0, 3, 1, 2).float() * (1.0 / 255.0))
 
     def forward_float(self, rgb01: torch.Tensor) -> torch.Tensor:
         """The same on float images [B, 3, H, W] in [0, 1] (training feeds augmented floats)."""

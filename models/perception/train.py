@@ -23,7 +23,7 @@ from tqdm import tqdm
 from models.perception.augment import AugmentConfig, augment_example, variable_appearance_classes
 from models.perception.dataset import FrameArrays, load_frames
 from models.perception.depth import DepthBins, DepthTarget, depth_loss
-from models.perception.evaluate import evaluate_model
+from models.perception.evaluate import validation_metrics
 from models.perception.network import (
     CheckpointInfo,
     PerceptionNet,
@@ -252,12 +252,6 @@ def train(config: TrainConfig) -> Path:
         },
     )
     if config.valid_frames is not None:
-        valid = load_frames(config.valid_frames, config.eval_side, limit=config.valid_limit)
-        with torch.inference_mode():
-            info.metrics = {
-                "valid_frames": str(config.valid_frames),
-                "count": len(valid),
-                **evaluate_model(model, valid),
-            }
+        info.metrics = validation_metrics(model, config.valid_frames, config.eval_side, config.valid_limit)
     save_checkpoint(config.out, model, info)
     return config.out
