@@ -144,10 +144,10 @@ def visible_instances(
     """The instances covering ``mask`` (the wanted type's pixels), nearest first.
 
     ``distances`` (the reach measure, ``pixel_axis_distances``) and ``usable`` (``usable_pixels``) are per
-    pixel; instance id 0 (an unlabelled pixel of the type, as a learned segmenter may leave) counts as one
-    instance.
+    pixel. Pixels of the type without an instance (id 0: the specks a learned segmenter's instance split
+    drops) are not an instance: a click on "instance 0" would land on any unlabelled pixel of the frame.
     """
-    wanted = mask & usable
+    wanted = mask & usable & (instances > 0)
     if not wanted.any():
         return []
     rows, cols = np.nonzero(wanted)  # [N] each

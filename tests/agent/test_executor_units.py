@@ -171,6 +171,30 @@ def test_a_place_click_with_estimated_depth_ignores_a_few_pixels_that_read_too_h
     assert robust is not None and abs(robust.point[1] - counter.top) < 0.02, (robust.point, counter.top)
 
 
+def test_specks_of_a_type_without_an_instance_are_never_clicked() -> None:
+    """A learned segmenter leaves specks of a class that its instance split drops (instance id 0). They
+    are not an object: treating "instance 0" as one clicked whatever unlabelled pixel lay nearest the
+    centroid of all of them (in episodes: the held pot, when the plan wanted the sink)."""
+    world = kitchen()
+    sim = simulator(world)
+    camera = Camera(300, 300, 90.0)
+    counter = world.of_type("CounterTop")[0]
+    _stand_facing(sim, counter)
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    instances = obs.instances.copy()
+    counter_pixels = instances == world.instance_ids[counter.object_id]
+    instances[counter_pixels] = 0  # the counter's class is seen, but the split kept no instance of it
+    distances = pixel_distances(obs.depth, camera)
+    usable = usable_pixels(distances, False, CONFIG)
+
+    seen = visible_instances(
+        counter_pixels, instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
+    )
+
+    assert seen == []
+
+
 # ----- success inference --------------------------------------------------------------------------------
 
 SUCCESS = SuccessConfig()
