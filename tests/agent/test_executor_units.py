@@ -20,7 +20,7 @@ from agent.mapping import SemanticMap
 from agent.perception import Observation, Percept
 from agent.session import FrameAlignment
 from harness.simulator import Simulator
-from harness.world import WorldObject
+from harness.world import World, WorldObject
 
 CONFIG = ClickConfig()
 STAIN = StainConfig()
@@ -103,15 +103,21 @@ def _stand_facing(sim: Simulator, target: WorldObject) -> None:
     world.agent.yaw, world.agent.horizon = int(round(bearing / 90.0)) * 90 % 360, 30.0
 
 
-def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
+def _facing_counter() -> tuple[World, WorldObject, Observation]:
+    """A kitchen with the agent standing at its first counter, and what it sees (depth, ids and pose)."""
     world = kitchen()
     sim = simulator(world)
-    camera = Camera(300, 300, 90.0)
     counter = world.of_type("CounterTop")[0]
     _stand_facing(sim, counter)
-    frame = sim.observe()
-    obs = observation(frame, sim.world.agent)
+    obs = observation(sim.observe(), sim.world.agent)
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    return world, counter, obs
+
+
+def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
+    world, counter, obs = _facing_counter()
+    assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    camera = Camera(300, 300, 90.0)
     distances = pixel_distances(obs.depth, camera)
     usable = usable_pixels(distances, False, CONFIG)
     counter_id = world.instance_ids[counter.object_id]
@@ -131,13 +137,9 @@ def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
 def test_a_place_click_with_estimated_depth_ignores_a_few_pixels_that_read_too_high() -> None:
     """A network's depth bleeds a neighbour's reading into a few of the counter's pixels, which then
     look 0.1 m or more above its top: the highest of them is not the top, the bulk of the surface is."""
-    world = kitchen()
-    sim = simulator(world)
-    camera = Camera(300, 300, 90.0)
-    counter = world.of_type("CounterTop")[0]
-    _stand_facing(sim, counter)
-    obs = observation(sim.observe(), sim.world.agent)
+    world, counter, obs = _facing_counter()
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    camera = Camera(300, 300, 90.0)
     counter_id = world.instance_ids[counter.object_id]
     depth = obs.depth.copy()
     rows, cols = np.nonzero(
@@ -175,13 +177,9 @@ def test_specks_of_a_type_without_an_instance_are_never_clicked() -> None:
     """A learned segmenter leaves specks of a class that its instance split drops (instance id 0). They
     are not an object: treating "instance 0" as one clicked whatever unlabelled pixel lay nearest the
     centroid of all of them (in episodes: the held pot, when the plan wanted the sink)."""
-    world = kitchen()
-    sim = simulator(world)
-    camera = Camera(300, 300, 90.0)
-    counter = world.of_type("CounterTop")[0]
-    _stand_facing(sim, counter)
-    obs = observation(sim.observe(), sim.world.agent)
+    world, counter, obs = _facing_counter()
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    camera = Camera(300, 300, 90.0)
     instances = obs.instances.copy()
     counter_pixels = instances == world.instance_ids[counter.object_id]
     instances[counter_pixels] = 0  # the counter's class is seen, but the split kept no instance of it
