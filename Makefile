@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(VENV)/bin/mypy symbolic app agent models
+	$(VENV)/bin/mypy symbolic app agent models harness bench
 
 test: lint
 	$(PY) -m pytest -q -m "not slow"

@@ -166,7 +166,7 @@ def main() -> None:
         print(f"{n:3d} {record['target']:<16} expert {len(expert):3d}  " + "  ".join(
             f"{name} {row[name]['steps'] if row[name]['found'] else '-'}" for name in EXPLORERS
         ))  # fmt: skip
-    result = {
+    result: dict[str, Any] = {
         "episodes": len(rows),
         "max_steps": args.max_steps,
         "split": "valid_unseen",

@@ -252,11 +252,11 @@ def harness_rooms() -> dict[str, object]:
                 if obj.parent_id is not None:
                     continue  # furniture only: what rests on it is reached from the same cells
                 target = footprint(world, obj.object_id, frame)
-                if not interaction_goal_cells(target, truth_standable, frame, target_height_m=obj.top).any():
+                if not interaction_goal_cells(target, truth_standable, frame).any():
                     continue  # the harness itself offers no cell within reach
                 for name, (make, radius_m) in NAVIGATORS.items():
                     standable = body_fits(obstacles, CELL_M, radius_m)
-                    cells = interaction_goal_cells(target, standable, frame, target_height_m=obj.top)
+                    cells = interaction_goal_cells(target, standable, frame)
                     run = drive(make(), grids, frame, pose, NavGoal(cells, face=target), can_move)
                     stats = per_nav[name]
                     stats["runs"] += 1

@@ -46,14 +46,16 @@ from harness.render import Frame
 from harness.runner import (
     DEFAULT_CAMERA,
     EpisodeUnavailable,
+    Perception,
     RunnerOptions,
     generated_tfd_episode,
     run_episode,
 )
 from harness.service import running_service
+from harness.splits import Split
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_ablation.json"
-SPLIT = "valid_unseen"
+SPLIT: Split = "valid_unseen"
 SETTINGS: tuple[str, ...] = ("oracle", "learned_depth", "learned_segmentation", "learned")
 SR_RATIO_MIN = 0.5  # the issue: learned SR >= 50% of oracle SR
 CLIENT_TIMEOUT_S = 300.0
@@ -79,13 +81,14 @@ class HalfLearnedClient(AgentClient):
         step_index: int | None = None,
         encoding: FrameEncoding | None = None,
     ) -> dict[str, Any]:
-        assert frame.rgb is not None, "the runner renders rgb for every setting"
+        rgb = frame.rgb
+        assert rgb is not None, "the runner renders rgb for every setting"
         if self.half == "depth":
-            depth, width90 = self.perception.estimate_depth(frame.rgb)
+            depth, width90 = self.perception.estimate_depth(rgb)
             trusted = confident_depth(depth, width90, None, c1=self.perception.config.c1)
             frame = dataclasses.replace(frame, depth=np.where(trusted, depth, 0.0).astype(np.float32))
         else:
-            seen = self.perception.estimate_classes(frame.rgb, frame.depth, None)
+            seen = self.perception.estimate_classes(rgb, frame.depth, None)
             legend = {
                 i: name for i, name in seen.instance_types.items() if name in self.perception.classes.types
             }
@@ -106,7 +109,7 @@ def run_one(setting: str, index: int, base_url: str) -> dict[str, Any]:
 
     torch.set_num_threads(1)
     episode = generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA)
-    service_perception = "learned" if setting == "learned" else "oracle"
+    service_perception: Perception = "learned" if setting == "learned" else "oracle"
     options = RunnerOptions(camera=DEFAULT_CAMERA, perception=service_perception)
     client: AgentClient
     if setting in ("learned_depth", "learned_segmentation"):

@@ -23,6 +23,7 @@ import platform
 import random
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -90,9 +91,9 @@ def time_perception(
     for rgb in images:
         obs = Observation(rgb=rgb)
         depth = perception.estimate_depth(rgb)[0]
-        whole.append(timed(lambda o=obs: perception.perceive(o, target_type="Mug"), repeats))
-        depth_part.append(timed(lambda r=rgb: perception.estimate_depth(r), repeats))
-        seg_part.append(timed(lambda r=rgb, d=depth: perception.estimate_classes(r, d, "Mug"), repeats))
+        whole.append(timed(partial(perception.perceive, obs, target_type="Mug"), repeats))
+        depth_part.append(timed(partial(perception.estimate_depth, rgb), repeats))
+        seg_part.append(timed(partial(perception.estimate_classes, rgb, depth, "Mug"), repeats))
 
     def median(rows: list[dict[str, float]], key: str) -> float:
         return round(float(np.median([row[key] for row in rows])), 2)

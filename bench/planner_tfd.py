@@ -64,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     with service_url(args.url, None, start=args.url is None) as url:
         result = evaluate(config, runs_for_commit(args.runs, commit), url, args.workers)
     summary = level_summary(result)
-    report = {
+    report: dict[str, Any] = {
         "benchmark": "tfd_model_planner",
         "split": SPLIT,
         "camera": {"width": DEFAULT_CAMERA.width, "height": DEFAULT_CAMERA.height, "hfov_deg": 90.0},

@@ -221,7 +221,7 @@ def render_frames(
         if world is None:
             continue
         randomize_states(world, rng, randomization, ontology)
-        cells = [tuple(int(v) for v in c) for c in np.argwhere(reachable_grid(world))]
+        cells = [(int(r), int(c)) for r, c in np.argwhere(reachable_grid(world))]
         for k in range(per_world):
             focused = focused_pose(world, cells, rng, ontology) if rng.random() < focus_share else None
             if focused is not None:
@@ -353,7 +353,8 @@ def search_episodes(
         horizon = float(rng.choice((0, 30)))
         sighted = SightingCheck(world, target_ids, horizon, config)
         cells = np.argwhere(free)
-        start = (*(int(v) for v in cells[rng.randrange(len(cells))]), rng.randrange(4))
+        row, col = cells[rng.randrange(len(cells))]
+        start = (int(row), int(col), rng.randrange(4))
         actions = shortest_search(start, sighted, free, config.max_steps)
         if actions is None or len(actions) < config.min_steps:
             continue

@@ -344,22 +344,7 @@ def run_episode(
     wall_s = time.perf_counter() - started
     if options.delete_session:
         _delete_quietly(client, session_id)
-    outcome = EpisodeOutcome(
-        instance_id=episode.instance_id,
-        task_name=_task_name(episode),
-        success=final_report.success,
-        gc_satisfied=final_report.satisfied,
-        gc_total=final_report.total,
-        init_gc_satisfied=initial_report.satisfied,
-        init_gc_total=initial_report.total,
-        pred_len=len(actions),
-        ref_len=episode.reference_length,
-        failure_reasons=dict(failures),
-        steps=len(actions),
-        wall_s=wall_s,
-        predicted_stop=end_reason == "stop",
-        error=end_reason == "error",
-    )
+    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
     return EpisodeRun(
         episode=episode,
         session_id=session_id,
@@ -396,6 +381,35 @@ def _delete_quietly(client: AgentClient, session_id: str) -> None:
         client.delete(session_id)
     except (ServiceError, httpx.HTTPError):
         return
+
+
+def episode_outcome(
+    episode: Episode,
+    initial_report: GoalReport,
+    final_report: GoalReport,
+    actions: Sequence[ActionRecord],
+    failures: Mapping[str, int],
+    end_reason: EndReason,
+    wall_s: float,
+) -> EpisodeOutcome:
+    """The metrics row of a finished episode; every way of driving an episode (native, TEACh's
+    RemoteModel, commander and follower) ends in the same row, so their numbers compare."""
+    return EpisodeOutcome(
+        instance_id=episode.instance_id,
+        task_name=_task_name(episode),
+        success=final_report.success,
+        gc_satisfied=final_report.satisfied,
+        gc_total=final_report.total,
+        init_gc_satisfied=initial_report.satisfied,
+        init_gc_total=initial_report.total,
+        pred_len=len(actions),
+        ref_len=episode.reference_length,
+        failure_reasons=dict(failures),
+        steps=len(actions),
+        wall_s=wall_s,
+        predicted_stop=end_reason == "stop",
+        error=end_reason == "error",
+    )
 
 
 def _task_name(episode: Episode) -> str:
@@ -573,22 +587,8 @@ def run_teach_episode(
     except (ServiceError, httpx.HTTPError) as error:
         end_reason, error_detail = "error", str(error)
     final_report = episode.check(simulator.world)
-    outcome = EpisodeOutcome(
-        instance_id=episode.instance_id,
-        task_name=_task_name(episode),
-        success=final_report.success,
-        gc_satisfied=final_report.satisfied,
-        gc_total=final_report.total,
-        init_gc_satisfied=initial_report.satisfied,
-        init_gc_total=initial_report.total,
-        pred_len=len(actions),
-        ref_len=episode.reference_length,
-        failure_reasons=dict(failures),
-        steps=len(actions),
-        wall_s=time.perf_counter() - started,
-        predicted_stop=end_reason == "stop",
-        error=end_reason == "error",
-    )
+    wall_s = time.perf_counter() - started
+    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
     progress = PlanProgress(created["plan"])
     return EpisodeRun(
         episode=episode,

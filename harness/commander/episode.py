@@ -33,13 +33,13 @@ from harness.client import AgentClient, ServiceError, pose_of
 from harness.commander.bot import Commander, InfoLevel
 from harness.commander.tools import CommanderTools
 from harness.episodes.model import Episode
-from harness.metrics import EpisodeOutcome
 from harness.runner import (
     ActionRecord,
     EndReason,
     EpisodeRun,
     PlanProgress,
     RunnerOptions,
+    episode_outcome,
     execute_action,
     session_payload,
 )
@@ -118,22 +118,7 @@ def run_tatc_episode(
     if options.delete_session:
         with contextlib.suppress(ServiceError, httpx.HTTPError):  # the episode is over either way
             client.delete(session_id)
-    outcome = EpisodeOutcome(
-        instance_id=episode.instance_id,
-        task_name=episode.task.task_name,
-        success=final_report.success,
-        gc_satisfied=final_report.satisfied,
-        gc_total=final_report.total,
-        init_gc_satisfied=initial_report.satisfied,
-        init_gc_total=initial_report.total,
-        pred_len=len(actions),
-        ref_len=episode.reference_length,
-        failure_reasons=dict(failures),
-        steps=len(actions),
-        wall_s=wall_s,
-        predicted_stop=end_reason == "stop",
-        error=end_reason == "error",
-    )
+    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
     return EpisodeRun(
         episode=episode,
         session_id=session_id,
