@@ -14,6 +14,7 @@ from pathlib import Path
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.config import RECIPES, GenerationConfig, get_recipe
 from models.planner.data import DatasetFiles, build_planner_datasets, handwritten_examples, read_examples
+from models.planner.modeling import read_planner_meta
 from models.planner.text import format_planner_input
 from symbolic.data_dir import REPO_ROOT, default_data_dir
 from symbolic.ontology import load_ontology
@@ -97,6 +98,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     from models.planner.evaluate import format_report_table, predict_in_batches, report_for, write_predictions
     from models.planner.predict import SubgoalGenerator
 
+    if args.handwritten is not None and not args.handwritten.is_file():
+        raise SystemExit(f"--handwritten {args.handwritten}: no such file")
+    handwritten = args.handwritten or (HANDWRITTEN if HANDWRITTEN.is_file() else None)
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
     generator = SubgoalGenerator.from_directory(
@@ -110,8 +114,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         if unknown:
             raise SystemExit(f"unknown evaluation set(s) {unknown}; {args.data} has: {', '.join(available)}")
         sets = {name: read_examples(available[name]) for name in chosen}
-    if args.handwritten is not None and args.handwritten.is_file():
-        sets["handwritten"] = handwritten_examples(args.handwritten, ontology)
+    if handwritten is not None:
+        sets["handwritten"] = handwritten_examples(handwritten, ontology)
     if not sets:
         raise SystemExit("nothing to evaluate: give --data DIR (from build-data) and/or --handwritten FILE")
     reports = []
@@ -124,8 +128,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     print(format_report_table(reports))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
+        meta = read_planner_meta(args.checkpoint)
         result = {
             "checkpoint": str(args.checkpoint),
+            "recipe": meta.get("recipe"),
+            "step": meta.get("step"),
             "num_beams": args.beams,
             "limit": args.limit,
             "sets": [report.as_json() for report in reports],
@@ -225,7 +232,11 @@ def _parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
     evaluate.add_argument("--data", type=Path, default=None, help="folder written by build-data")
     evaluate.add_argument("--sets", nargs="*", help="evaluation set names (default: all in --data)")
-    evaluate.add_argument("--handwritten", type=Path, default=HANDWRITTEN, help="our own dialogues (JSONL)")
+    evaluate.add_argument(
+        "--handwritten",
+        type=Path,
+        help=f"our own dialogues (JSONL; default {HANDWRITTEN.relative_to(REPO_ROOT)})",
+    )
     evaluate.add_argument("--out", type=Path, default=None, help="write the metrics here (JSON)")
     evaluate.add_argument("--predictions", type=Path, default=None, help="folder for per-example predictions")
     evaluate.add_argument("--batch-size", type=int, default=32)

@@ -83,6 +83,7 @@ def render_model_card(
 ) -> str:
     """The card's Markdown: what the model is, its data, how it was made, what it scores, its size."""
     train = meta.get("train_config", {})
+    continued = " from an earlier run's weights (`--init-from`)" if meta.get("initialised_from") else ""
     lines = [
         "# Language planner (default checkpoint)",
         "",
@@ -114,10 +115,10 @@ def render_model_card(
         "",
         "## Training",
         "",
-        f"- {meta.get('step')} steps of batch {train.get('batch_size')}, AdamW at "
+        f"- {meta.get('step')} steps of batch {train.get('batch_size')}{continued}, AdamW at "
         f"{train.get('learning_rate')} with {train.get('warmup_steps')} warm-up steps and linear decay, "
-        f"label smoothing "
-        f"{train.get('label_smoothing')}, seed {train.get('seed')}; final dev loss {meta.get('dev_loss')}",
+        f"label smoothing {train.get('label_smoothing')}, seed {train.get('seed')}; final dev loss "
+        f"{_rounded(meta.get('dev_loss'))}",
         "- commands:",
         "",
         "```",
@@ -142,7 +143,7 @@ def render_model_card(
         lines += [
             "## Compared with the other backbone",
             "",
-            f"`{comparison.get('checkpoint')}` on the same sets:",
+            f"{_compared_model(comparison)} on the same sets:",
             "",
             *metrics_table(comparison["sets"]),
             "",
@@ -177,3 +178,15 @@ def export_checkpoint(
     card = render_model_card(read_planner_meta(final_dir), evaluation, size, commands, comparison, notes)
     (destination / MODEL_CARD_FILE).write_text(card, encoding="utf-8")
     return size
+
+
+def _compared_model(evaluation: Mapping[str, Any]) -> str:
+    """How the card names the other backbone: its recipe and steps (older files only knew a path)."""
+    if evaluation.get("recipe") is None:
+        return f"`{evaluation.get('checkpoint')}`"
+    return f"The `{evaluation['recipe']}` recipe after {evaluation['step']:,} steps"
+
+
+def _rounded(value: object) -> object:
+    """A loss as a reader compares it (four places); anything else as recorded."""
+    return round(value, 4) if isinstance(value, float) else value

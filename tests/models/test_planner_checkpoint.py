@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
 from models.planner import DEFAULT_CHECKPOINT_DIR
+from models.planner.__main__ import main as planner_cli
 from models.planner.modeling import read_planner_meta
 from models.planner.predict import SubgoalGenerator
 from models.planner.text import format_instruction
@@ -63,3 +65,9 @@ def test_a_chilling_instruction_goes_through_the_fridge(generator: SubgoalGenera
     plan = list(prediction.subgoals)
     assert Subgoal(A.PICKUP, "Apple") in plan
     assert plan.index(Subgoal(A.PLACE, "Fridge")) < plan.index(Subgoal(A.PLACE, "CounterTop"))
+
+
+def test_evaluate_refuses_a_handwritten_file_that_is_not_there(tmp_path: Path) -> None:
+    """A mistyped path once skipped the hand-written set without a word; the metrics file then lacked it."""
+    with pytest.raises(SystemExit, match="no such file"):
+        planner_cli(["evaluate", "--handwritten", str(tmp_path / "missing.jsonl")])
