@@ -2,9 +2,10 @@
 
 Plans name types (JARVIS's subgoals, TEACh's history_subgoals). The instance is chosen as a person would:
 the one the agent last dealt with (it opened this cabinet, put this slice in the toaster: ``Memory.where``,
-and for what it put down itself the stable segmentation id), never one the plan has finished with (after
-"Place Bowl", the next "Pickup LettuceSliced" means another slice), one that looks clean or dirty as the
-plan needs (``looks``), and otherwise the nearest.
+and for what it put down itself its segmentation id, or where it lies when learned perception renumbers
+instances every frame), never one the plan has finished with (after "Place Bowl", the next "Pickup
+LettuceSliced" means another slice), one that looks clean or dirty as the plan needs (``looks``), and
+otherwise the nearest.
 """
 
 from __future__ import annotations
@@ -151,10 +152,11 @@ class InstanceChoice(StepContext):
         return []
 
     def _finished(self, obj: str, x: float, z: float, instance_id: int | None = None) -> bool:
-        """Whether this X is one the plan is done with: by its segmentation id when it is in view and the
-        finished one's id is known, else by nearness to where a finished one was put."""
+        """Whether this X is one the plan is done with: by its segmentation id when it is in view, the
+        finished one's id is known and ids are stable across frames, else by nearness to where a finished one
+        was put."""
         memory = self.state.memory
-        if instance_id is not None and memory.done_ids.get(obj):
+        if instance_id is not None and memory.done_ids.get(obj) and self.view.percept.persistent_ids:
             return instance_id in memory.done_ids[obj]
         spots = memory.done_with.get(obj, [])
         return any(math.hypot(x - sx, z - sz) <= self.cfg.done_radius_m for sx, sz in spots)
@@ -296,13 +298,13 @@ class InstanceChoice(StepContext):
             candidates = [v for v in candidates if not self._second_rate(obj, *_xzy(v.point))]
         remembered = attempt.pinned if attempt.pinned is not None else self._remembered(obj, attempt)
         if remembered is not None:
-            return next((v for v in candidates if v.instance_id == remembered), None)
+            return self._the_one_dealt_with(obj, remembered, candidates)
         if not candidates:
             return None
         opened = self.state.memory.instance.get(obj) if obj in self.onto.enclosing else None
-        same = [v for v in candidates if v.instance_id == opened]
-        if same:
-            return same[0]  # the cabinet it opened, for "Place Cabinet" and "Close Cabinet"
+        same = self._the_one_dealt_with(obj, opened, candidates) if opened is not None else None
+        if same is not None:
+            return same  # the cabinet it opened, for "Place Cabinet" and "Close Cabinet"
         ranked = sorted(candidates, key=lambda v: self._rank(obj, v, v.nearest_m))
         best = ranked[0]
         best_key = self._rank(obj, best, best.nearest_m)
@@ -322,6 +324,20 @@ class InstanceChoice(StepContext):
             if not anchored and apart > self.cfg.done_radius_m / 2 and key[:2] < best_key[:2]:
                 return None  # a mapped instance that looks as the plan needs (clean, dirty): go there
         return best
+
+    def _the_one_dealt_with(
+        self, obj: str, instance_id: int, candidates: list[VisibleInstance]
+    ) -> VisibleInstance | None:
+        """The candidate that is the X the agent last dealt with (``Memory.instance``, a pin): by its id when
+        ids are the simulator's; else by nearness to where the agent last acted on or put down an X
+        (``Memory.where``), as learned perception numbers its instances afresh every frame."""
+        if self.view.percept.persistent_ids:
+            return next((v for v in candidates if v.instance_id == instance_id), None)
+        where = self.state.memory.where.get(obj)
+        if where is None:
+            return None
+        near = [v for v in candidates if v.distance_to(where[0], where[2]) <= self.cfg.done_radius_m]
+        return min(near, key=lambda v: v.distance_to(where[0], where[2]), default=None)
 
     @staticmethod
     def _switched(point: Point, switched: list[tuple[int, Point]]) -> bool:

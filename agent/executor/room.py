@@ -77,7 +77,9 @@ class MakeRoom(ContainerSearch):
             return None
         (x0, y0, z0), (x1, y1, z1) = box
         above = ((x0, y0, z0), (x1, y1 + 0.3, z1))  # what lies in a basin or on a plate rises above its rim
-        in_hand = self.state.memory.instance.get(held)  # held far out in front, it may show in the box
+        in_hand = None  # held far out in front, it may show in the box; learned ids name nothing next frame
+        if self.view.percept.persistent_ids:
+            in_hand = self.state.memory.instance.get(held)
         found: list[tuple[str, VisibleInstance]] = []
         for object_type in sorted(set(self.view.percept.instance_types.values())):
             if object_type not in self.onto:

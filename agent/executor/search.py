@@ -437,7 +437,7 @@ class ContainerSearch(Approach):
             (v for v in self.view.clickable(kind) if math.dist(v.point, target) <= self.cfg.search.part_m),
             key=lambda v: (v.instance_id != visit.instance_id, math.dist(v.point, target)),
         )
-        opened = self.state.opened_for.setdefault(obj, [])
+        opened = self.state.opened_for.setdefault(obj, []) if self.view.percept.persistent_ids else []
         if visit.stage == "open" and candidates and candidates[0].instance_id in opened:
             if math.dist(candidates[0].point, target) <= SAME_DOOR_M:
                 return self._skip_container(obj, attempt, "was looked into already")

@@ -64,7 +64,7 @@ class Percept:
     persistent_ids: bool = True
     """Whether an instance id names the same object in every frame (the simulator's ids, as the oracle
     gives them). The learned back-end numbers connected components afresh each frame, so the executor then
-    recognises an instance it failed on by where it is, not by its id."""
+    recognises an instance it failed on, put down or finished with by where it is, not by its id."""
     depth_far: np.ndarray | None = None
     """float32 [H, W]: the far end of each reading's 90% interval (None: the depth is exact). Reach is
     judged on it, so an object the network puts at 1.2 m give or take 0.4 m is walked closer to first."""

@@ -517,3 +517,89 @@ def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapp
     assert cluster.cells.sum() == 1
     (i,), (j,) = cluster.ii, cluster.jj
     assert (i, j) == (X - 1, semantic_map.world_to_cell(1.0, 1.0)[1])  # the same row, at the edge
+
+
+# ----- the instance the agent dealt with ----------------------------------------------------------------
+
+
+def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_old_id() -> None:
+    # Learned perception numbers its components afresh every frame: the id a tomato had when it was picked
+    # up may name the other tomato now. "Pickup Tomato" after putting one down means the one put down.
+    from agent.classes import load_class_index
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from harness.physics import move_with_contents, resting_center
+    from harness.worldgen import generate_kitchen
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    world = generate_kitchen(3, require=(("Tomato", 2),))
+    sim = simulator(world)
+    counter = world.of_type("CounterTop")[0]
+    _stand_facing(sim, counter)
+    put_down, other = world.of_type("Tomato")[:2]
+    agent = sim.world.agent
+    ahead = (math.sin(math.radians(agent.yaw)), math.cos(math.radians(agent.yaw)))
+    across = (ahead[1], -ahead[0])
+    for thing, side in ((put_down, -0.25), (other, 0.25)):  # side by side on the counter, 0.5 m apart
+        near = (
+            agent.x + 0.45 * ahead[0] + side * across[0],
+            counter.top,
+            agent.z + 0.45 * ahead[1] + side * across[1],
+        )
+        spot = resting_center(world, thing, counter, near=near)
+        assert spot is not None
+        move_with_contents(world, thing, spot[0])
+        thing.parent_id = counter.object_id
+    sim = simulator(world)  # a simulator renders the world as it was given it
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.depth is not None and obs.instances is not None and obs.pose is not None
+    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
+    mine, theirs = (world.instance_ids[o.object_id] for o in (put_down, other))
+    assert (obs.instances == mine).sum() > 30 and (obs.instances == theirs).sum() > 30, "both in view"
+    classes = load_class_index()
+    class_ids = np.zeros(obs.instances.shape, dtype=np.uint8)
+    for instance_id, name in obs.legend.items():
+        if name in classes.types:
+            class_ids[obs.instances == instance_id] = classes.id_of(name)
+    renumbered = obs.instances.copy()  # this frame's numbering: the two tomatoes swap ids
+    renumbered[obs.instances == mine] = theirs
+    renumbered[obs.instances == theirs] = mine
+    percept = Percept(
+        obs.depth,
+        obs.depth > 0,
+        class_ids,
+        renumbered,
+        dict(obs.legend),
+        persistent_ids=False,
+    )
+    semantic_map = SemanticMap(camera, pose)
+    semantic_map.update(percept, pose)
+    view = SessionMapView(
+        semantic_map,
+        percept,
+        camera,
+        pose,
+        holding=False,
+        last_success=None,
+        ignored=[],
+        explore_attempts={},
+        click_config=CONFIG,
+    )
+    belief = BeliefState.initial(onto)
+    belief.placed.add("Tomato")
+    belief.inside["Tomato"] = "CounterTop"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    executor.state.memory.instance["Tomato"] = mine  # its id when it was picked up
+    executor.state.memory.where["Tomato"] = put_down.center  # where the Place click put it
+
+    decision = executor.decide(
+        StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None),
+        parse_subgoals("Pickup Tomato", onto),
+        0,
+    )
+
+    assert decision.action == "Pickup", decision
+    assert decision.x is not None and decision.y is not None
+    assert sim.resolve_click(decision.x, decision.y, "Pickup") == put_down.object_id
