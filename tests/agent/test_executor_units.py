@@ -494,13 +494,9 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
 # ----- remembered spots ---------------------------------------------------------------------------------
 
 
-def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapped_cell() -> None:
-    # Learned depth once put a container 4 m past the wall; walking back to it raised IndexError (a 500).
-    camera, pose = Camera(300, 300, 90.0), Pose(1.0, 1.0, 0.0, 30.0)
-    semantic_map = SemanticMap(camera, pose)
-    blank = np.zeros((300, 300), dtype=np.float32)
-    percept = Percept(blank + 1.0, blank > 0, blank.astype(np.uint8), blank.astype(np.int32), {})
-    view = SessionMapView(
+def _first_view(semantic_map: SemanticMap, percept: Percept, camera: Camera, pose: Pose) -> SessionMapView:
+    """The executor's view of a session's first step: hands empty, nothing ignored or tried yet."""
+    return SessionMapView(
         semantic_map,
         percept,
         camera,
@@ -511,6 +507,15 @@ def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapp
         explore_attempts={},
         click_config=CONFIG,
     )
+
+
+def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapped_cell() -> None:
+    # Learned depth once put a container 4 m past the wall; walking back to it raised IndexError (a 500).
+    camera, pose = Camera(300, 300, 90.0), Pose(1.0, 1.0, 0.0, 30.0)
+    semantic_map = SemanticMap(camera, pose)
+    blank = np.zeros((300, 300), dtype=np.float32)
+    percept = Percept(blank + 1.0, blank > 0, blank.astype(np.uint8), blank.astype(np.int32), {})
+    view = _first_view(semantic_map, percept, camera, pose)
     X, Z = semantic_map.shape
     east_edge_x = semantic_map.frame.origin_x + X * semantic_map.frame.cell_m
     cluster = view.spot_cluster((east_edge_x + 4.0, 0.9, 1.0), 0.1)
@@ -576,17 +581,7 @@ def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_ol
     )
     semantic_map = SemanticMap(camera, pose)
     semantic_map.update(percept, pose)
-    view = SessionMapView(
-        semantic_map,
-        percept,
-        camera,
-        pose,
-        holding=False,
-        last_success=None,
-        ignored=[],
-        explore_attempts={},
-        click_config=CONFIG,
-    )
+    view = _first_view(semantic_map, percept, camera, pose)
     belief = BeliefState.initial(onto)
     belief.placed.add("Tomato")
     belief.inside["Tomato"] = "CounterTop"
