@@ -75,6 +75,10 @@ class ExecutorConfig:
     # is believed over the plan's (a knife at 0.45 m covers about 1%)
     false_detection_radius_m: float = 0.2  # metres around a spot learned segmentation misnamed (clicks
     # on it kept failing); small, as the real X may stand right beside it
+    speck_max_pixels: int = 30  # with learned segmentation, an instance smaller than this (of a 300x300
+    # frame) ...
+    speck_share: float = 0.05  # ... and than this share of the largest of its type in view is a speck
+    # bled onto a neighbour, not clicked (a sofa's bleed onto a credit card: 12 pixels beside 5,700)
     bad_stand_radius_m: float = 0.3  # metres: goal cells this close to a given-up standing spot are skipped
     anchor_radius_m: float = 0.35  # metres: an instance this close to the remembered spot is that one
     part_radius_m: float = 0.4  # metres: the part of a row of same-type instances that is one of them

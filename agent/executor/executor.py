@@ -268,7 +268,11 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             attempt.failed_clicks.append(FailedClick.of(click, pending.pose))
             persistent = self.view.percept.persistent_ids
             failures_here = attempt.instance_failures(click.instance_id, click.point, persistent)
-            if pending.action in STATE_ACTIONS and failures_here >= 2:
+            # Twice nothing changed on the true X: it is already in that state. Learned segmentation may
+            # have named a counter "Faucet": its spot is ruled out below, and only a second spot that
+            # changes nothing twice means the state is already there.
+            unchanged = persistent or attempt.failures >= 2 * self.cfg.retries_per_instance
+            if pending.action in STATE_ACTIONS and failures_here >= 2 and unchanged:
                 if self._more_switches(subgoal, attempt, click, changed=False):
                     return
                 self._complete(
@@ -283,11 +287,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
                 full = self._extent_of(click.instance_id)  # AI2-THOR tried every spot on it: full
                 if full is not None:
                     attempt.full.append(full)
-            if (
-                not persistent
-                and subgoal.action is not A.PLACE
-                and failures_here >= self.cfg.retries_per_instance
-            ):
+            if not persistent and failures_here >= self.cfg.retries_per_instance:
                 self._rule_out_click(
                     subgoal.obj, click, f"{pending.action} failed {failures_here} times there"
                 )
