@@ -40,6 +40,7 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        _limit_torch_threads(settings.torch_threads)
         app.state.ontology = load_ontology()
         app.state.store = InMemorySessionStore(settings.max_sessions, settings.session_ttl_s, clock=clock)
         app.state.teach_episodes = TeachEpisodes()
@@ -72,3 +73,11 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
     )
     app.add_middleware(RequestLog)
     return app
+
+
+def _limit_torch_threads(threads: int) -> None:
+    """The networks' intra-op pool size; torch applies it to every thread of the process, including the
+    worker threads requests run in."""
+    import torch
+
+    torch.set_num_threads(threads)

@@ -36,6 +36,14 @@ class Settings(BaseSettings):
         default=None,
         description="Segmentation network directory for learned perception; None: the shipped one.",
     )
+    torch_threads: int = Field(
+        default=1,
+        ge=1,
+        description="Threads each network call may use. Sessions step at once in the server's worker "
+        "threads, so one each keeps them from fighting over the cores (two services with torch's default "
+        "of a thread per core ran learned episodes about three times slower on 2 cores); DESIGN.md §8's "
+        "budgets are measured with one.",
+    )
     log_level: str = Field(default="info", description="Root log level; logs are one JSON event per line.")
 
     # Limits: a serving process must bound what one client can make it hold.

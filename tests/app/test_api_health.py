@@ -36,3 +36,26 @@ def test_not_ready_before_the_lifespan_ran() -> None:
     assert ready.json() == {"error": "not_ready", "detail": "not loaded yet: session store, ontology"}
     assert create.status_code == 503
     assert create.json()["error"] == "not_ready"
+
+
+def test_the_networks_use_the_configured_threads_in_the_threads_requests_run_in() -> None:
+    # Sessions step at once in the server's worker threads; with torch's default of a thread per core each
+    # they fought over the cores. The setting, applied at start-up, reaches threads started afterwards.
+    import threading
+
+    import torch
+
+    def in_a_new_thread() -> int:
+        seen: list[int] = []
+        worker = threading.Thread(target=lambda: seen.append(torch.get_num_threads()))
+        worker.start()
+        worker.join()
+        return seen[0]
+
+    before = torch.get_num_threads()
+    try:
+        for threads in (1, 3):
+            with TestClient(create_app(Settings(log_level="warning", torch_threads=threads))):
+                assert in_a_new_thread() == threads
+    finally:
+        torch.set_num_threads(before)
