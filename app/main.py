@@ -40,7 +40,8 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        _limit_torch_threads(settings.torch_threads)
+        if settings.torch_threads is not None:
+            _limit_torch_threads(settings.torch_threads)
         app.state.ontology = load_ontology()
         app.state.store = InMemorySessionStore(settings.max_sessions, settings.session_ttl_s, clock=clock)
         app.state.teach_episodes = TeachEpisodes()
@@ -76,8 +77,8 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
 
 
 def _limit_torch_threads(threads: int) -> None:
-    """The networks' intra-op pool size; torch applies it to every thread of the process, including the
-    worker threads requests run in."""
+    """The networks' intra-op pool size; torch applies it to every thread started afterwards, which
+    includes the worker threads requests run in."""
     import torch
 
     torch.set_num_threads(threads)

@@ -36,13 +36,13 @@ class Settings(BaseSettings):
         default=None,
         description="Segmentation network directory for learned perception; None: the shipped one.",
     )
-    torch_threads: int = Field(
-        default=1,
+    torch_threads: int | None = Field(
+        default=None,
         ge=1,
-        description="Threads each network call may use. Sessions step at once in the server's worker "
-        "threads, so one each keeps them from fighting over the cores (two services with torch's default "
-        "of a thread per core ran learned episodes about three times slower on 2 cores); DESIGN.md §8's "
-        "budgets are measured with one.",
+        description="Threads each network call may use; None keeps torch's default of one per core. Set 1 "
+        "when several service processes share a machine: two services with the default ran learned "
+        "episodes about three times slower on 2 cores. One service stepping two sessions at once ran "
+        "about 15% faster with the default than with 1. DESIGN.md §8's budgets are measured with one.",
     )
     log_level: str = Field(default="info", description="Root log level; logs are one JSON event per line.")
 

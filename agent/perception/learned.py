@@ -11,8 +11,8 @@ Instances come from ``models.perception.instances`` (components per class cut at
 
 Both networks run at their own small input side (as shipped: 96 pixels for depth, 192 for segmentation;
 the frame is area-downscaled) and their outputs are resized back to the camera's size by nearest neighbour,
-to fit a step into the CPU budget (measured by ``bench/perception_speed.py`` with one torch thread, the
-service's default: ``JARVIS_TORCH_THREADS``). They were trained on 90° frames (TEACh's camera): depth
+to fit a step into the CPU budget (measured by ``bench/perception_speed.py`` with one torch thread:
+``JARVIS_TORCH_THREADS=1``). They were trained on 90° frames (TEACh's camera): depth
 from a camera with another field of view is scaled wrongly, so sessions with ALFRED's 60° camera should
 prefer oracle perception or networks trained on their own frames (``models/perception/dataset.py``).
 """

@@ -39,8 +39,8 @@ def test_not_ready_before_the_lifespan_ran() -> None:
 
 
 def test_the_networks_use_the_configured_threads_in_the_threads_requests_run_in() -> None:
-    # Sessions step at once in the server's worker threads; with torch's default of a thread per core each
-    # they fought over the cores. The setting, applied at start-up, reaches threads started afterwards.
+    # Two services on one 2-core machine, each with torch's default of a thread per core, fought over the
+    # cores. The setting, applied at start-up, reaches the threads requests run in (started afterwards).
     import threading
 
     import torch
