@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -21,6 +22,10 @@ from agent.perception import Observation, Percept
 from agent.session import FrameAlignment
 from harness.simulator import Simulator
 from harness.world import World, WorldObject
+
+if TYPE_CHECKING:
+    from agent.executor import Decision, Executor
+    from symbolic.subgoals import Subgoal
 
 CONFIG = ClickConfig()
 STAIN = StainConfig()
@@ -662,10 +667,46 @@ def test_with_learned_segmentation_a_speck_of_x_in_reach_is_not_clicked_while_th
     assert decision.action != "ToggleOn", decision  # it walks toward the toaster instead
 
 
+def _decide_while_nothing_changes(
+    executor: Executor,
+    obs: Observation,
+    percept: Percept,
+    plan: list[Subgoal],
+    steps: int,
+    held_type: str | None = None,
+) -> list[Decision]:
+    """The executor's decisions over ``steps`` steps from one unchanging frame: after the first, each
+    action it took is inferred to have failed (nothing changed), as a session would judge it."""
+    from agent.executor import StepInputs
+
+    assert obs.pose is not None
+    camera, pose = Camera(300, 300, 90.0), obs.pose
+    semantic_map = SemanticMap(camera, pose)
+    decisions = []
+    for step in range(steps):
+        success = None if step == 0 else False
+        semantic_map.update(percept, pose)
+        view = SessionMapView(
+            semantic_map,
+            percept,
+            camera,
+            pose,
+            holding=held_type is not None,
+            held_type=held_type,
+            last_success=success,
+            ignored=executor.state.ignored,
+            explore_attempts={},
+            click_config=CONFIG,
+        )
+        inputs = StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), success)
+        decisions.append(executor.decide(inputs, plan, 0))
+    return decisions
+
+
 def test_with_learned_segmentation_a_spot_where_place_keeps_failing_is_ruled_out() -> None:
     # Floor read as a shelf: Place on it fails every time, and the agent clicked the same floor six times
     # and gave the subgoal up. Under learned perception a spot Place keeps failing on is a misnamed one.
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -673,34 +714,15 @@ def test_with_learned_segmentation_a_spot_where_place_keeps_failing_is_ruled_out
 
     world, counter, obs = _facing_counter()
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
-    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
+    onto = load_ontology()
     learned = _learned_percept(obs, obs.instances)
-    semantic_map = SemanticMap(camera, pose)
     belief = BeliefState.initial(onto)
     belief.held = "Tomato"
     executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
-    plan = parse_subgoals("Place CounterTop", onto)
-    clicks = []
-    for step in range(4):  # the world never changes: every Place fails
-        success = None if step == 0 else False
-        semantic_map.update(learned, pose)
-        view = SessionMapView(
-            semantic_map,
-            learned,
-            camera,
-            pose,
-            holding=True,
-            held_type="Tomato",
-            last_success=success,
-            ignored=executor.state.ignored,
-            explore_attempts={},
-            click_config=CONFIG,
-        )
-        decision = executor.decide(
-            StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), success), plan, 0
-        )
-        if decision.action == "Place":
-            clicks.append((decision.x, decision.y))
+    decisions = _decide_while_nothing_changes(
+        executor, obs, learned, parse_subgoals("Place CounterTop", onto), 4, held_type="Tomato"
+    )
+    clicks = [(d.x, d.y) for d in decisions if d.action == "Place"]
 
     ruled_out = [spot for spot in executor.state.ignored if spot.object_type == "CounterTop"]
     assert len(clicks) >= 2 and ruled_out, (clicks, executor.state.ignored)
@@ -711,7 +733,7 @@ def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_t
 ):
     # A counter read as a faucet: ToggleOn there changed nothing twice and the agent concluded the tap was
     # already running, so the dish was never rinsed. With learned ids one spot is a misnamed one first.
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -719,32 +741,16 @@ def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_t
 
     world, counter, obs = _facing_counter()
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
-    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
-    reach = pixel_distances(obs.depth, camera)
+    onto = load_ontology()
+    reach = pixel_distances(obs.depth, Camera(300, 300, 90.0))
     in_reach = {obs.legend[int(i)] for i in np.unique(obs.instances[(reach < 1.2) & (obs.instances > 0)])}
     openable = sorted(t for t in in_reach if onto.get(t).openable)
     assert openable, f"something openable in reach: {in_reach}"
     learned = _learned_percept(obs, obs.instances)
-    semantic_map = SemanticMap(camera, pose)
     executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
-    plan = parse_subgoals(f"Open {openable[0]}", onto)
-    decisions = []
-    for step in range(3):  # the world never changes: every Open "fails"
-        success = None if step == 0 else False
-        semantic_map.update(learned, pose)
-        view = SessionMapView(
-            semantic_map,
-            learned,
-            camera,
-            pose,
-            holding=False,
-            last_success=success,
-            ignored=executor.state.ignored,
-            explore_attempts={},
-            click_config=CONFIG,
-        )
-        inputs = StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), success)
-        decisions.append(executor.decide(inputs, plan, 0))
+    decisions = _decide_while_nothing_changes(
+        executor, obs, learned, parse_subgoals(f"Open {openable[0]}", onto), 3
+    )
 
     assert [d.action for d in decisions[:2]] == ["Open", "Open"], decisions
     assert not decisions[-1].plan_done and decisions[-1].pointer == 0, decisions[-1]
