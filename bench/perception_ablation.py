@@ -10,13 +10,11 @@ and listed.
 - ``learned``: the service's learned back-end (``agent/perception/learned.py``), RGB only.
 - ``learned_depth`` / ``learned_segmentation``: one half learned, the other true. The service's session
   schema names only ``oracle`` and ``learned``, so these run the same networks (``LearnedPerception``) in
-  the bench process and send their output through the oracle channels: learned depth with the pixels that
-  fail HLSM eq. (5)'s ``W90 < c1·E`` zeroed (no reading; the looser target threshold c2 needs the current
-  target, which the client does not know), or learned classes split into instances at the true depth's
-  discontinuities with their legend. The service's clicks still hit whatever object is under the pixel.
-  The oracle channels carry no W90, so under ``learned_depth`` the service judges reach by the expected
-  depth, where its learned back-end uses the interval's far end: that row's "too far to interact" failures
-  overstate what learned depth costs a ``learned`` session.
+  the bench process and send their output through the oracle channels: the expected depth with the width
+  of its 90% interval as ``depth_uncertainty`` (the service then applies HLSM eq. (5) with the current
+  target's looser threshold and judges reach on the interval's far end, as its learned back-end does), or
+  learned classes split into instances at the true depth's discontinuities with their legend. The
+  service's clicks still hit whatever object is under the pixel.
 
 Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
 --keep-other-settings`` measures some settings now and keeps the others the file holds for the same
@@ -40,7 +38,6 @@ import numpy as np
 from tqdm import tqdm
 
 from agent.geometry import Camera
-from agent.perception.base import confident_depth
 from agent.perception.learned import LearnedConfig, LearnedPerception
 from harness.client import AgentClient, FrameEncoding, ServiceError
 from harness.metrics import EpisodeOutcome, aggregate
@@ -87,8 +84,7 @@ class HalfLearnedClient(AgentClient):
         assert rgb is not None, "the runner renders rgb for every setting"
         if self.half == "depth":
             depth, width90 = self.perception.estimate_depth(rgb)
-            trusted = confident_depth(depth, width90, None, c1=self.perception.config.c1)
-            frame = dataclasses.replace(frame, depth=np.where(trusted, depth, 0.0).astype(np.float32))
+            frame = dataclasses.replace(frame, depth=depth, depth_uncertainty=width90)
         else:
             seen = self.perception.estimate_classes(rgb, frame.depth, None)
             legend = {

@@ -114,6 +114,8 @@ def observation_parts(frame: Frame, encoding: FrameEncoding) -> dict[str, bytes]
     parts: dict[str, bytes] = {}
     if encoding.send_oracle:
         parts["depth"] = encode_depth(frame.depth, encoding.depth)
+        if frame.depth_uncertainty is not None:
+            parts["depth_uncertainty"] = encode_depth(frame.depth_uncertainty, encoding.depth)
         parts["segmentation"] = encode_instances(frame.instances)
     if encoding.send_rgb:
         if frame.rgb is None:
@@ -134,8 +136,8 @@ def _form_value(value: object) -> str:
 def _file_name(field: str, encoding: FrameEncoding) -> str:
     if field == "rgb":
         return "rgb.jpg" if encoding.rgb_format == "jpeg" else "rgb.png"
-    if field == "depth" and encoding.depth == "float32_m":
-        return "depth.f32"
+    if field in ("depth", "depth_uncertainty") and encoding.depth == "float32_m":
+        return f"{field}.f32"
     return f"{field}.png"
 
 

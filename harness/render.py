@@ -42,6 +42,8 @@ class Frame:
     instances: np.ndarray  # int32 [H, W] instance ids; 0 where a ray hit nothing
     legend: dict[int, str] = field(default_factory=dict)  # id -> object type of every id in the frame
     object_ids: dict[int, str] = field(default_factory=dict)  # id -> object id, for objects in the frame
+    depth_uncertainty: np.ndarray | None = None  # float32 [H, W] metres: width of a depth estimate's 90%
+    # interval, sent with a depth that is an estimate (the renderer's own depth is exact: None)
 
 
 class Renderer:

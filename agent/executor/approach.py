@@ -15,13 +15,15 @@ import math
 import numpy as np
 
 from agent.executor.choice import InstanceChoice
+from agent.executor.clicks import Click
 from agent.executor.mapview import IgnoredSpot, MapCluster
 from agent.executor.state import Attempt
 from agent.executor.step import Act, Outcome
+from agent.geometry import project_points
 from agent.mapping import GridFrame
 from agent.navigation.base import NavGoal, body_fits
 from agent.navigation.goals import interaction_goal_cells
-from symbolic.subgoals import SubgoalAction
+from symbolic.subgoals import Subgoal, SubgoalAction
 from symbolic.thor import INTERACTION_DISTANCE_M
 
 A = SubgoalAction
@@ -30,6 +32,13 @@ FRONT_FLOOR_SHARE = 0.5
 """Share of the most open side's floor a remembered front needs to be believed (``_known_front``)."""
 HEADING_KEEP_M = 0.3
 """Metres: a mapped instance this close to the one walked toward last step is that one."""
+WHERE_PUT_CLICKS = 2
+"""Pickups per subgoal aimed at the spot where the agent put X down, when X is not recognised there."""
+WHERE_PUT_LIFT_M = 0.03
+"""Metres above the remembered spot (the receptacle's surface under X) that the click aims at."""
+WHERE_PUT_HIDDEN_M = 0.4
+"""Metres: a pixel whose surface is this much nearer than the remembered spot hides it (an X as tall as
+this, standing on the spot, is itself nearer than the spot)."""
 
 
 class Approach(InstanceChoice):
@@ -225,6 +234,36 @@ class Approach(InstanceChoice):
         angle = math.degrees(math.atan2(self.view.camera.height_m - aim, distance))
         options = self._horizons()
         return min(options, key=lambda h: abs(h - angle))
+
+    def _click_where_put(self, subgoal: Subgoal, attempt: Attempt) -> Click | None:
+        """Learned segmentation may not recognise an X the agent itself put down or sliced (a bowl under the
+        running tap reads as the sink basin), yet where it is is known (``Memory.where``): a Pickup of X
+        clicks the pixel where that spot shows, when it is in view, within reach and not hidden behind
+        something nearer; at most ``WHERE_PUT_CLICKS`` times a subgoal. With true segmentation an X that
+        does not show is not there, so this is for learned perception only."""
+        where = self.state.memory.where.get(subgoal.obj)
+        percept = self.view.percept
+        if (
+            subgoal.action is not A.PICKUP
+            or where is None
+            or percept.persistent_ids
+            or attempt.where_put_clicks >= WHERE_PUT_CLICKS
+            or math.hypot(where[0] - self.pose.x, where[2] - self.pose.z) > self.cfg.click.reach_m
+        ):
+            return None
+        x, y, z = where
+        spot = np.array([[x, y + WHERE_PUT_LIFT_M, z]])
+        rows, cols, depths = project_points(spot, self.view.camera, self.pose)
+        H, W = percept.depth.shape
+        if not (0.0 <= rows[0] < H and 0.0 <= cols[0] < W):  # NaN (behind the camera) fails too
+            return None
+        row, col = int(rows[0]), int(cols[0])
+        if percept.depth[row, col] < depths[0] - WHERE_PUT_HIDDEN_M:
+            return None
+        attempt.where_put_clicks += 1
+        return Click(
+            row=row, col=col, x=col / W, y=row / H, instance_id=int(percept.instances[row, col]), point=where
+        )
 
     def _at_destination(self, obj: str, cluster: MapCluster, attempt: Attempt) -> Outcome:
         """Standing where X should be reachable, facing it, yet X is not clickable: pitch the camera toward

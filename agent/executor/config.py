@@ -66,6 +66,9 @@ class ExecutorConfig:
     max_failures: int = 6  # failed object actions before the subgoal is given up
     max_steps_per_subgoal: int = 300  # actions spent on one subgoal before it is given up
     max_given_up: int = 4  # subgoals given up before the episode stops
+    retry_rounds: int = 1  # times the given-up subgoals are tried again when the plan runs out ...
+    retry_min_steps: int = 100  # ... if at least this many actions of the episode are left (and a
+    # subgoal's worth of failed actions, ``max_failures``)
     row_switch_steps: int = 16  # actions spent on the other switches of a row (stove knobs) once one is done
     look_sweep: int = 3  # camera pitches tried at a destination before moving around it
     stain: StainConfig = field(default_factory=StainConfig)

@@ -122,7 +122,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         if limit is not None:
             return self._stop(limit)
         for _ in range(MAX_SUBGOALS_PER_STEP):
-            if self.pointer >= len(self.plan):
+            if self.pointer >= len(self.plan) and not self._retry_given_up():
                 return self._stop("plan done: every subgoal was executed", plan_done=True)
             subgoal = self.plan[self.pointer]
             attempt = self._attempt_for(subgoal)
@@ -424,7 +424,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self.state.memory.pins.insert(0, (A.PICKUP.value, obj, instance_id))
 
     def _give_up(self, subgoal: Subgoal, outcome: GiveUp) -> None:
-        """A failed subgoal goes back to repair: drop it, repair the rest from the current belief."""
+        """A failed subgoal goes back to repair: drop it, repair the rest from the current belief. It and
+        what repair dropped with it (a Place after a Pickup that failed) wait for ``_retry_given_up``."""
         self.state.given_up += 1
         self.state.attempt = None
         if outcome.question is not None:
@@ -432,8 +433,32 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
         self.repairs.append(
             RepairEvent("subgoal-failed", self.pointer, outcome.reason, removed=(subgoal,), inserted=())
         )
-        self._repair_rest(self.plan[self.pointer + 1 :])
+        rest = self.plan[self.pointer + 1 :]
+        self._repair_rest(rest)
+        self.state.retry.extend([subgoal, *_dropped(rest, self.plan[self.pointer :])])
         self.events.append(f"gave up {subgoal}: {outcome.reason}")
+
+    def _retry_given_up(self) -> bool:
+        """The plan ran out with subgoals given up: try them once more, repaired from the current belief,
+        when the episode has actions and failures to spare. JARVIS sends a failed subgoal back to repair
+        and planning, but nothing plans it again when the plan is the oracle's, and with learned
+        segmentation a Place given up after six clicks on misnamed spots ended a game at step 35 with the
+        cup still in hand; on the second round those spots stay ruled out and others are tried."""
+        cfg, state = self.cfg, self.state
+        spare_steps = cfg.max_steps - self.inputs.step >= cfg.retry_min_steps
+        spare_failures = cfg.max_failed_actions - state.failed_actions >= cfg.max_failures
+        if not state.retry or state.retry_rounds >= cfg.retry_rounds or not (spare_steps and spare_failures):
+            return False
+        queued, state.retry = state.retry, []
+        state.retry_rounds += 1
+        repaired = repair_plan(queued, self.onto, state.belief)
+        if not repaired.plan:
+            return False
+        reason = f"the plan ran out with {len(queued)} subgoals given up; trying them once more"
+        self.repairs.append(RepairEvent("retry-given-up", self.pointer, reason, (), tuple(repaired.plan)))
+        self.plan = [*self.plan, *repaired.plan]
+        self.events.append(reason)
+        return True
 
     def _before_front(self, obj: str, chosen: VisibleInstance) -> bool:
         """For a container (Fridge, Cabinet...): the agent stands on its front side, where its inside will
@@ -477,4 +502,25 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             click = self._click_on(chosen, attempt, purpose)
             if click is not None:
                 return Act(action, f"Interactive({action}, {obj})", purpose="plan", click=click)
+        where_put = self._click_where_put(subgoal, attempt)
+        if where_put is not None:
+            return Act(
+                action,
+                f"{action} {obj} where it was put down (not recognised there)",
+                purpose="plan",
+                click=where_put,
+            )
         return self._approach(obj, attempt)
+
+
+def _dropped(before: Sequence[Subgoal], after: Sequence[Subgoal]) -> list[Subgoal]:
+    """The subgoals of ``before`` that ``after`` (its repair) no longer has, in order: ``after`` is matched
+    greedily as a subsequence, so what repair inserted is passed over."""
+    dropped, start = [], 0
+    for subgoal in before:
+        match = next((k for k in range(start, len(after)) if after[k] == subgoal), None)
+        if match is None:
+            dropped.append(subgoal)
+        else:
+            start = match + 1
+    return dropped

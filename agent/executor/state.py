@@ -213,6 +213,7 @@ class Attempt:
     switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
     # (stove knobs) switched this subgoal
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch
+    where_put_clicks: int = 0  # Pickups aimed at where the agent put the target down (``_click_where_put``)
 
     def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:
         """Failed clicks on an instance: by its id when ids persist across frames (the oracle's), else the
@@ -249,6 +250,9 @@ class ExecutorState:
     containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
     failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
     given_up: int = 0  # subgoals abandoned to repair
+    retry: list[Subgoal] = field(default_factory=list)  # given-up subgoals, with what repair dropped along,
+    # for one more round when the plan runs out (``_retry_given_up``)
+    retry_rounds: int = 0  # such rounds begun
     completed: list[Subgoal] = field(
         default_factory=list
     )  # subgoals carried out, in order (a re-plan's history)

@@ -52,12 +52,14 @@ class OraclePerception:
         valid = confident_depth(
             obs.depth, obs.depth_uncertainty, target_mask, c1=self.config.c1, c2=self.config.c2
         )
+        far = None if obs.depth_uncertainty is None else obs.depth + 0.5 * obs.depth_uncertainty
         return Percept(
             depth=obs.depth,
             depth_valid=valid,
             class_ids=class_ids,
             instances=obs.instances,
             instance_types=dict(obs.legend),
+            depth_far=far,  # an estimated depth (sent with its uncertainty): reach on the far end, as learned
         )
 
     def _class_ids(self, instances: np.ndarray, legend: Mapping[int, str]) -> np.ndarray:

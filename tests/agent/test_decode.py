@@ -268,3 +268,17 @@ def test_depth_confidence_follows_hlsm_equation_5(frame) -> None:
     for_apple = oracle.perceive(obs, target_type="Apple").depth_valid
     assert (for_apple == (frame.instances == apple_id)).all()
     assert not oracle.perceive(obs, target_type=None).depth_valid.any()
+
+
+def test_an_estimated_depth_is_reached_on_its_far_end(frame) -> None:
+    """A caller that sends depth with its uncertainty (an estimate, as the learned back-end's) has reach
+    judged on the far end of each reading's 90% interval, as learned perception does; exact depth as is."""
+    oracle = OraclePerception(CAMERA)
+    exact = oracle.perceive(decode_observation(CAMERA, **_good(frame)), target_type=None)
+    assert exact.depth_far is None
+    width90 = np.full((H, W), 0.2, np.float32)
+    estimated = oracle.perceive(
+        decode_observation(CAMERA, **_good(frame), depth_uncertainty=width90), target_type=None
+    )
+    assert estimated.depth_far is not None
+    assert np.allclose(estimated.depth_far, estimated.depth + 0.1)

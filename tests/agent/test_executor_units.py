@@ -546,16 +546,11 @@ def _learned_percept(obs: Observation, instances: np.ndarray) -> Percept:
 # ----- the instance the agent dealt with ----------------------------------------------------------------
 
 
-def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_old_id() -> None:
-    # Learned perception numbers its components afresh every frame: the id a tomato had when it was picked
-    # up may name the other tomato now. "Pickup Tomato" after putting one down means the one put down.
-    from agent.executor import Executor, StepInputs
-    from agent.navigation import make_navigator
+def _two_tomatoes_on_a_counter() -> tuple[Simulator, WorldObject, WorldObject, WorldObject, Observation]:
+    """A kitchen with the agent at a counter on which two tomatoes lie side by side, 0.5 m apart, both in
+    view: (simulator, counter, the tomato the agent put down, the other one, what the agent sees)."""
     from harness.physics import move_with_contents, resting_center
     from harness.worldgen import generate_kitchen
-    from symbolic.belief import BeliefState
-    from symbolic.ontology import load_ontology
-    from symbolic.subgoals import parse_subgoals
 
     world = generate_kitchen(3, require=(("Tomato", 2),))
     sim = simulator(world)
@@ -565,7 +560,7 @@ def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_ol
     agent = sim.world.agent
     ahead = (math.sin(math.radians(agent.yaw)), math.cos(math.radians(agent.yaw)))
     across = (ahead[1], -ahead[0])
-    for thing, side in ((put_down, -0.25), (other, 0.25)):  # side by side on the counter, 0.5 m apart
+    for thing, side in ((put_down, -0.25), (other, 0.25)):
         near = (
             agent.x + 0.45 * ahead[0] + side * across[0],
             counter.top,
@@ -578,13 +573,24 @@ def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_ol
     sim = simulator(world)  # a simulator renders the world as it was given it
     obs = observation(sim.observe(), sim.world.agent)
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
-    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
     mine, theirs = (world.instance_ids[o.object_id] for o in (put_down, other))
     assert (obs.instances == mine).sum() > 30 and (obs.instances == theirs).sum() > 30, "both in view"
-    renumbered = obs.instances.copy()  # this frame's numbering: the two tomatoes swap ids
-    renumbered[obs.instances == mine] = theirs
-    renumbered[obs.instances == theirs] = mine
-    percept = _learned_percept(obs, renumbered)
+    return sim, counter, put_down, other, obs
+
+
+def _decide_pickup_of_put_down_tomato(
+    percept: Percept, obs: Observation, where: tuple[float, float, float], instance_id: int | None = None
+) -> Decision:
+    """The executor's first decision for "Pickup Tomato" when the agent itself put a tomato down at
+    ``where`` (its id then ``instance_id``), seeing ``percept``."""
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    assert obs.pose is not None
+    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
     semantic_map = SemanticMap(camera, pose)
     semantic_map.update(percept, pose)
     view = _first_view(semantic_map, percept, camera, pose)
@@ -592,18 +598,60 @@ def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_ol
     belief.placed.add("Tomato")
     belief.inside["Tomato"] = "CounterTop"
     executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
-    executor.state.memory.instance["Tomato"] = mine  # its id when it was picked up
-    executor.state.memory.where["Tomato"] = put_down.center  # where the Place click put it
-
-    decision = executor.decide(
+    if instance_id is not None:
+        executor.state.memory.instance["Tomato"] = instance_id
+    executor.state.memory.where["Tomato"] = where  # where the Place click put it
+    return executor.decide(
         StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None),
         parse_subgoals("Pickup Tomato", onto),
         0,
     )
 
+
+def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_old_id() -> None:
+    # Learned perception numbers its components afresh every frame: the id a tomato had when it was picked
+    # up may name the other tomato now. "Pickup Tomato" after putting one down means the one put down.
+    sim, _, put_down, other, obs = _two_tomatoes_on_a_counter()
+    assert obs.instances is not None
+    mine, theirs = (sim.world.instance_ids[o.object_id] for o in (put_down, other))
+    renumbered = obs.instances.copy()  # this frame's numbering: the two tomatoes swap ids
+    renumbered[obs.instances == mine] = theirs
+    renumbered[obs.instances == theirs] = mine
+
+    decision = _decide_pickup_of_put_down_tomato(
+        _learned_percept(obs, renumbered), obs, put_down.center, instance_id=mine
+    )
+
     assert decision.action == "Pickup", decision
     assert decision.x is not None and decision.y is not None
     assert sim.resolve_click(decision.x, decision.y, "Pickup") == put_down.object_id
+
+
+def test_with_learned_segmentation_an_x_put_down_but_not_recognised_is_picked_up_where_it_was_put() -> None:
+    # A bowl left under the running tap read as the sink basin: the agent walked about the sink for 300
+    # steps looking for a bowl. Where the agent put its X down is known; a Pickup clicks there.
+    sim, counter, put_down, other, obs = _two_tomatoes_on_a_counter()
+    assert obs.instances is not None
+    counter_id = sim.world.instance_ids[counter.object_id]
+    unrecognised = obs.instances.copy()  # both tomatoes read as the counter they lie on
+    for tomato in (put_down, other):
+        unrecognised[obs.instances == sim.world.instance_ids[tomato.object_id]] = counter_id
+    percept = _learned_percept(obs, unrecognised)
+    percept.class_ids[unrecognised == counter_id] = percept.class_ids[obs.instances == counter_id][0]
+    percept.instance_types.clear()
+    percept.instance_types[counter_id] = "CounterTop"
+    where = (put_down.center[0], counter.top, put_down.center[2])  # the counter's top under it
+
+    decision = _decide_pickup_of_put_down_tomato(percept, obs, where)
+
+    assert decision.action == "Pickup", decision
+    assert decision.x is not None and decision.y is not None
+    assert sim.resolve_click(decision.x, decision.y, "Pickup") == put_down.object_id
+    # true segmentation that does not show the tomato means it is not there: no blind click
+    oracle = Percept(
+        percept.depth, percept.depth_valid, percept.class_ids, unrecognised, {counter_id: "CounterTop"}
+    )
+    assert _decide_pickup_of_put_down_tomato(oracle, obs, where).action != "Pickup"
 
 
 # ----- what learned segmentation gets wrong ---------------------------------------------------------------
@@ -676,13 +724,15 @@ def _decide_while_nothing_changes(
     held_type: str | None = None,
 ) -> list[Decision]:
     """The executor's decisions over ``steps`` steps from one unchanging frame: after the first, each
-    action it took is inferred to have failed (nothing changed), as a session would judge it."""
+    action it took is inferred to have failed (nothing changed), as a session would judge it; the plan and
+    pointer each decision leaves are the next step's, as in a session."""
     from agent.executor import StepInputs
 
     assert obs.pose is not None
     camera, pose = Camera(300, 300, 90.0), obs.pose
     semantic_map = SemanticMap(camera, pose)
-    decisions = []
+    decisions: list[Decision] = []
+    pointer = 0
     for step in range(steps):
         success = None if step == 0 else False
         semantic_map.update(percept, pose)
@@ -699,7 +749,11 @@ def _decide_while_nothing_changes(
             click_config=CONFIG,
         )
         inputs = StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), success)
-        decisions.append(executor.decide(inputs, plan, 0))
+        decision = executor.decide(inputs, plan, pointer)
+        decisions.append(decision)
+        plan, pointer = list(decision.plan), decision.pointer
+        if decision.stop:
+            break
     return decisions
 
 
@@ -726,6 +780,43 @@ def test_with_learned_segmentation_a_spot_where_place_keeps_failing_is_ruled_out
 
     ruled_out = [spot for spot in executor.state.ignored if spot.object_type == "CounterTop"]
     assert len(clicks) >= 2 and ruled_out, (clicks, executor.state.ignored)
+
+
+def test_a_subgoal_given_up_is_tried_once_more_when_the_plan_runs_out_if_the_episode_can_afford_it() -> None:
+    # Six Place clicks on misnamed spots gave "Place Shelf" up, and the episode ended at step 35 with the
+    # cup still in hand and 965 actions left. The given-up subgoal gets one more round, budget allowing.
+    from agent.executor import ExecutorConfig
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    _, _, obs = _facing_counter()
+    onto = load_ontology()
+
+    def rules_and_decisions(config: ExecutorConfig) -> tuple[list[list[str]], list[Decision]]:
+        from agent.executor import Executor
+        from agent.navigation import make_navigator
+        from symbolic.belief import BeliefState
+
+        belief = BeliefState.initial(onto)
+        belief.held = "Tomato"
+        executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0), config)
+        plan = parse_subgoals("Place CounterTop", onto)
+        decisions = _decide_while_nothing_changes(
+            executor, obs, _learned_percept(obs, obs.instances), plan, 60, held_type="Tomato"
+        )
+        return [[event.rule for event in d.repairs] for d in decisions], decisions
+
+    rules, decisions = rules_and_decisions(ExecutorConfig())
+    gave_up = [i for i, r in enumerate(rules) if "subgoal-failed" in r]
+    retried = [i for i, r in enumerate(rules) if "retry-given-up" in r]
+    assert gave_up and retried == gave_up[:1], rules  # once, as the plan ran out
+    assert not decisions[retried[0]].stop and len(decisions[retried[0]].plan) >= 1, decisions[retried[0]]
+    assert decisions[retried[0]].plan[-1] == parse_subgoals("Place CounterTop", onto)[0]
+
+    no_spare_steps = ExecutorConfig(retry_min_steps=ExecutorConfig().max_steps)
+    rules, decisions = rules_and_decisions(no_spare_steps)
+    assert not any("retry-given-up" in r for r in rules), rules
+    assert decisions[-1].stop and decisions[-1].plan_done, decisions[-1]
 
 
 def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_taken_as_already_open() -> (

@@ -6,6 +6,7 @@ the runner drives it over TCP exactly as ``python -m harness run`` does.
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -91,6 +92,14 @@ def test_oracle_parts_are_sent_only_when_asked(kitchen_frame: Any) -> None:
     assert set(observation_parts(kitchen_frame, FrameEncoding())) == {"rgb", "depth", "segmentation"}
     assert set(observation_parts(kitchen_frame, FrameEncoding(send_rgb=False))) == {"depth", "segmentation"}
     assert set(observation_parts(kitchen_frame, FrameEncoding(send_oracle=False))) == {"rgb"}
+
+
+def test_an_estimated_depth_is_sent_with_its_uncertainty(kitchen_frame: Any) -> None:
+    estimated = dataclasses.replace(kitchen_frame, depth_uncertainty=kitchen_frame.depth * 0.1)
+    parts = observation_parts(estimated, FrameEncoding(send_rgb=False, depth="float32_m"))
+    assert set(parts) == {"depth", "depth_uncertainty", "segmentation"}
+    sent = np.frombuffer(parts["depth_uncertainty"], dtype="<f4").reshape(kitchen_frame.depth.shape)
+    assert np.array_equal(sent, estimated.depth_uncertainty)
 
 
 def test_pose_is_the_world_pose_with_yaw_in_range() -> None:
