@@ -702,6 +702,8 @@ def _inputs_summary(obs: Observation) -> dict[str, Any]:
         summary["last_action_success"] = obs.last_action_success
     if obs.held_object is not None:
         summary["held_object"] = obs.held_object
+    if obs.instances is not None and not obs.instance_ids_persistent:
+        summary["segmentation_ids_persistent"] = False
     return summary
 
 

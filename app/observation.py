@@ -97,6 +97,7 @@ def observation_from_request(
             depth_uncertainty=images["depth_uncertainty"],
             segmentation=images["segmentation"],
             segmentation_legend=body.segmentation_legend,
+            segmentation_ids_persistent=body.segmentation_ids_persistent,
             pose=Pose(pose.x, pose.z, pose.yaw, pose.horizon) if pose is not None else None,
             last_action_success=body.last_action_success,
             held_object=body.held_object,

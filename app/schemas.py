@@ -462,6 +462,13 @@ class StepRequest(RequestModel):
         description="Instance id -> AI2-THOR object type; ids absent here are unlabelled pixels.",
         examples=[{"1": "Knife", "2": "CounterTop"}],
     )
+    segmentation_ids_persistent: bool = Field(
+        default=True,
+        description="true: an instance id names the same object in every frame (a simulator's ids, as "
+        "AI2-THOR's); false: ids are numbered afresh each frame (a segmenter's components or detections), "
+        "so the agent recognises what it put down, failed on or finished with by where it is.",
+        examples=[True],
+    )
     pose: Pose | None = Field(
         default=None,
         description="Agent pose if known.",

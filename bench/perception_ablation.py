@@ -13,7 +13,8 @@ and listed.
   the bench process and send their output through the oracle channels: the expected depth with the width
   of its 90% interval as ``depth_uncertainty`` (the service then applies HLSM eq. (5) with the current
   target's looser threshold and judges reach on the interval's far end, as its learned back-end does), or
-  learned classes split into instances at the true depth's discontinuities with their legend. The
+  learned classes split into instances at the true depth's discontinuities with their legend, marked
+  ``segmentation_ids_persistent: false`` (numbered afresh each frame, as the learned back-end's are). The
   service's clicks still hit whatever object is under the pixel.
 
 Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
@@ -90,7 +91,9 @@ class HalfLearnedClient(AgentClient):
             legend = {
                 i: name for i, name in seen.instance_types.items() if name in self.perception.classes.types
             }
-            frame = dataclasses.replace(frame, instances=seen.instances.astype(np.int32), legend=legend)
+            frame = dataclasses.replace(
+                frame, instances=seen.instances.astype(np.int32), legend=legend, instance_ids_persistent=False
+            )
         return super().step(
             session_id,
             frame,

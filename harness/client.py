@@ -229,6 +229,8 @@ class AgentClient:
         if chosen.send_oracle:
             fields["depth_encoding"] = chosen.depth
             fields["segmentation_legend"] = {str(k): v for k, v in frame.legend.items()}
+            if not frame.instance_ids_persistent:
+                fields["segmentation_ids_persistent"] = False
         if pose is not None:
             fields["pose"] = dict(pose)
         if last_action_success is not None:

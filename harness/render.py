@@ -44,6 +44,7 @@ class Frame:
     object_ids: dict[int, str] = field(default_factory=dict)  # id -> object id, for objects in the frame
     depth_uncertainty: np.ndarray | None = None  # float32 [H, W] metres: width of a depth estimate's 90%
     # interval, sent with a depth that is an estimate (the renderer's own depth is exact: None)
+    instance_ids_persistent: bool = True  # False: ids numbered afresh for this frame (a segmenter's)
 
 
 class Renderer:

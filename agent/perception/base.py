@@ -40,6 +40,9 @@ class Observation:
     """int32 [H, W] instance ids; every id appears in ``legend`` except 0, which means "nothing known"."""
     legend: Mapping[int, str] = field(default_factory=dict)
     """Instance id -> canonical ontology type."""
+    instance_ids_persistent: bool = True
+    """Whether an id names the same object in every frame (a simulator's) or only in this one (a
+    segmenter's); becomes ``Percept.persistent_ids``."""
     pose: Pose | None = None
     """World-frame pose when the caller knows it."""
     last_action_success: bool | None = None

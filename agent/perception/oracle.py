@@ -59,6 +59,7 @@ class OraclePerception:
             class_ids=class_ids,
             instances=obs.instances,
             instance_types=dict(obs.legend),
+            persistent_ids=obs.instance_ids_persistent,
             depth_far=far,  # an estimated depth (sent with its uncertainty): reach on the far end, as learned
         )
 

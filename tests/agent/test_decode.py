@@ -282,3 +282,13 @@ def test_an_estimated_depth_is_reached_on_its_far_end(frame) -> None:
     )
     assert estimated.depth_far is not None
     assert np.allclose(estimated.depth_far, estimated.depth + 0.1)
+
+
+def test_a_segmenters_per_frame_ids_are_not_taken_for_the_same_objects_next_frame(frame) -> None:
+    """A simulator's ids name one object for the whole episode; a segmenter's (``false``) only this frame,
+    and the agent then recognises things by where they are (``Percept.persistent_ids``)."""
+    oracle = OraclePerception(CAMERA)
+    simulator_ids = oracle.perceive(decode_observation(CAMERA, **_good(frame)), target_type=None)
+    per_frame = decode_observation(CAMERA, **_good(frame), segmentation_ids_persistent=False)
+    assert simulator_ids.persistent_ids
+    assert not oracle.perceive(per_frame, target_type=None).persistent_ids

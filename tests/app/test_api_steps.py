@@ -117,6 +117,27 @@ def test_a_step_index_neither_next_nor_last_is_refused(client: TestClient) -> No
     assert client.get(f"/v1/sessions/{session_id}").json()["step"] == 2
 
 
+def test_per_frame_segmentation_ids_are_declared_in_json_or_form_and_shown_in_the_trace(
+    client: TestClient,
+) -> None:
+    json_id, form_id = _session(client), _session(client)
+    body = {**oracle_observation(), "segmentation_ids_persistent": False}
+    data, files = _multipart(body)
+
+    assert _step(client, json_id, body).status_code == 200
+    by_form = client.post(f"/v1/sessions/{form_id}/step", data=data, files=files)
+    assert by_form.status_code == 200, by_form.text
+    for session_id in (json_id, form_id):
+        (entry,) = [
+            json.loads(line) for line in client.get(f"/v1/sessions/{session_id}/trace").text.splitlines()
+        ]
+        assert entry["inputs"]["segmentation_ids_persistent"] is False
+    refused = _step(
+        client, _session(client), {**oracle_observation(), "segmentation_ids_persistent": "maybe"}
+    )
+    assert refused.status_code == 422 and "segmentation_ids_persistent" in refused.json()["detail"]
+
+
 def test_float32_depth_with_uncertainty_is_accepted(client: TestClient) -> None:
     session_id = _session(client)
     depth = np.full((SMALL_CAMERA["height"], SMALL_CAMERA["width"]), 1.5, dtype="<f4")

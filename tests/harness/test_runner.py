@@ -255,6 +255,22 @@ def test_multipart_and_json_frames_get_the_same_first_action(
     assert (answers[0]["x"], answers[0]["y"]) == (answers[1]["x"], answers[1]["y"])
 
 
+def test_an_estimate_and_per_frame_ids_reach_the_service_over_either_transport(
+    service: RunningService, short_episode: Episode
+) -> None:
+    payload = session_payload(short_episode, RunnerOptions())
+    frame = Simulator(short_episode.world.copy(), RunnerOptions().camera).observe(noise_seed=0)
+    estimated = dataclasses.replace(frame, depth_uncertainty=frame.depth * 0.1, instance_ids_persistent=False)
+    with AgentClient(service.base_url) as client:
+        for transport in ("json", "multipart"):
+            session_id = client.create_session(payload)["session_id"]
+            client.step(session_id, estimated, step_index=0, encoding=FrameEncoding(transport=transport))
+            (entry,) = client.trace(session_id)
+            client.delete(session_id)
+            assert entry["inputs"]["depth_uncertainty"] is True, transport
+            assert entry["inputs"]["segmentation_ids_persistent"] is False, transport
+
+
 def test_an_unknown_session_is_a_404_service_error(service: RunningService) -> None:
     with AgentClient(service.base_url) as client, pytest.raises(ServiceError) as caught:
         client.get_session("no-such-session")

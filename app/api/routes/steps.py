@@ -28,7 +28,9 @@ from app.views import step_result
 
 IMAGE_FIELDS: tuple[str, ...] = ("rgb", "depth", "depth_uncertainty", "segmentation")
 """StepRequest fields that may arrive as multipart file parts."""
-JSON_TEXT_FIELDS: frozenset[str] = frozenset({"pose", "segmentation_legend", "last_action_success", "step"})
+JSON_TEXT_FIELDS: frozenset[str] = frozenset(
+    {"pose", "segmentation_legend", "segmentation_ids_persistent", "last_action_success", "step"}
+)
 """Multipart text fields that carry JSON (objects, booleans, integers) rather than plain text."""
 PROCESS_TIME_HEADER = "X-Process-Time-Ms"
 """Server-side milliseconds spent on the step, from the parsed request to the answer."""
@@ -45,6 +47,7 @@ _MULTIPART_DOC: dict[str, Any] = {
                         **{name: {"type": "string", "format": "binary"} for name in IMAGE_FIELDS},
                         "depth_encoding": {"type": "string", "enum": ["png16_mm", "float32_m"]},
                         "segmentation_legend": {"type": "string", "description": 'JSON {"7": "Knife"}'},
+                        "segmentation_ids_persistent": {"type": "string", "enum": ["true", "false"]},
                         "pose": {"type": "string", "description": "JSON Pose"},
                         "last_action_success": {"type": "string", "enum": ["true", "false"]},
                         "step": {"type": "integer"},
