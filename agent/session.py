@@ -293,6 +293,7 @@ class AgentSession:
             self.repair_log = list(outcome.repair_log)
             self.pointer = 0
             self.done = False
+            self.executor.state.retry.clear()  # the new plan is the planner's word on what is left
             self._adopt_hints(outcome)
         self.dialogue.append(turn)
         self.updated_at = now or datetime.now(UTC)
@@ -526,6 +527,7 @@ class AgentSession:
         self.plan_source = outcome.source
         self.repair_log.extend(outcome.repair_log)
         self.pointer = 0
+        self.executor.state.retry.clear()  # the new plan is the planner's word on what is left
         events.append(f"re-planned because {why}: {format_subgoals(self.plan)}")
         return True
 

@@ -122,6 +122,28 @@ def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs
     assert session._planning_context(session.dialogue).history_subgoals == tuple(done)
 
 
+def test_a_commanders_new_plan_replaces_what_the_executor_meant_to_try_again() -> None:
+    """Subgoals given up wait for one more round when the plan runs out; a planner's new plan (here after
+    a commander's turn) is its word on what is left, so they do not come back after it."""
+    from agent.planning import DialogueTurn
+
+    ontology = load_ontology()
+    session = AgentSession.start(
+        "s",
+        mode="tfd",
+        camera=CAMERA,
+        perception="oracle",
+        navigator="fmm",
+        planner=make_planner("model", ontology),
+        dialogue=[DialogueTurn("Commander", "hi, please pick up the apple")],
+        ontology=ontology,
+    )
+    session.executor.state.retry.append(Subgoal(A.PLACE, "Shelf"))  # given up earlier
+
+    assert session.add_utterance("Commander", "now put the apple in the fridge")
+    assert session.executor.state.retry == []
+
+
 def test_an_oracle_planned_session_never_plans_again_on_its_own() -> None:
     sim = simulator(kitchen())
     session = _session("Navigate Apple, Pickup Apple")
