@@ -21,7 +21,8 @@ Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; 
 --keep-other-settings`` measures some settings now and keeps the others the file holds for the same
 episodes. Writes ``bench/results/perception_ablation.json`` (24 games, all four settings); the issue's
 100-game run of ``oracle`` and ``learned`` is kept in ``perception_ablation_100.json`` (``--n 100 --settings
-oracle learned --out bench/results/perception_ablation_100.json``, about 55 minutes on 2 cores).
+oracle learned --out bench/results/perception_ablation_100.json``, about 90 minutes on 2 cores: 8 for oracle,
+80 for learned).
 """
 
 from __future__ import annotations
