@@ -85,25 +85,30 @@ def test_a_goal_transformer_session_explores_with_the_model_and_resumes_from_a_s
     assert restored.step_once(upcoming) == session.step_once(upcoming)
 
 
-def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs_out() -> None:
-    """Issue #5: the language planner re-plans when the plan is exhausted, reading the dialogue and every
-    subgoal carried out so far; whatever it answers, it is asked a bounded number of times."""
-    import json
-
+def _model_planned_session(first_turn: str) -> AgentSession:
+    """An oracle-perception TfD session whose plan comes from the language model, after one commander turn."""
     from agent.planning import DialogueTurn
 
     ontology = load_ontology()
-    sim = simulator(kitchen())
-    session = AgentSession.start(
+    return AgentSession.start(
         "s",
         mode="tfd",
         camera=CAMERA,
         perception="oracle",
         navigator="fmm",
         planner=make_planner("model", ontology),
-        dialogue=[DialogueTurn("Commander", "hi, please pick up the apple")],
+        dialogue=[DialogueTurn("Commander", first_turn)],
         ontology=ontology,
     )
+
+
+def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs_out() -> None:
+    """Issue #5: the language planner re-plans when the plan is exhausted, reading the dialogue and every
+    subgoal carried out so far; whatever it answers, it is asked a bounded number of times."""
+    import json
+
+    sim = simulator(kitchen())
+    session = _model_planned_session("hi, please pick up the apple")
     assert session.plan_source == "model"
     # a plan that runs out soon, whatever the model first made of the request:
     session.plan = [Subgoal(A.NAVIGATE, "Apple"), Subgoal(A.PICKUP, "Apple")]
@@ -125,19 +130,7 @@ def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs
 def test_a_commanders_new_plan_replaces_what_the_executor_meant_to_try_again() -> None:
     """Subgoals given up wait for one more round when the plan runs out; a planner's new plan (here after
     a commander's turn) is its word on what is left, so they do not come back after it."""
-    from agent.planning import DialogueTurn
-
-    ontology = load_ontology()
-    session = AgentSession.start(
-        "s",
-        mode="tfd",
-        camera=CAMERA,
-        perception="oracle",
-        navigator="fmm",
-        planner=make_planner("model", ontology),
-        dialogue=[DialogueTurn("Commander", "hi, please pick up the apple")],
-        ontology=ontology,
-    )
+    session = _model_planned_session("hi, please pick up the apple")
     session.executor.state.retry.append(Subgoal(A.PLACE, "Shelf"))  # given up earlier
 
     assert session.add_utterance("Commander", "now put the apple in the fridge")
