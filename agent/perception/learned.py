@@ -32,6 +32,7 @@ from agent.classes import ClassIndex, load_class_index
 from agent.geometry import Camera
 from agent.perception.base import Observation, ObservationError, Percept, confident_depth
 from agent.perception.oracle import OraclePerception
+from models.perception.instances import InstanceSplitConfig
 
 if TYPE_CHECKING:
     import torch
@@ -63,6 +64,12 @@ class LearnedConfig:
     c2: float = 1.0  # ... or W90 < c2 · E on the current target's pixels
     target_probability: float = 0.5  # HLSM eq. (5): target pixels are those with [IS]_argC > 0.5
     min_class_probability: float = 0.3  # below this the pixel's class is unknown (0); its depth still counts
+    instances: InstanceSplitConfig = InstanceSplitConfig(min_pixels=20)  # at the network's side (192 px):
+    # on 300 valid_unseen frames, task-class components of 4-8 pixels were their class in 23% of cases,
+    # 8-22 in 38%, 22-64 in 68%, larger in 91-99%; from 4 to 20 pixels, 52% -> 88% of the instances left
+    # are the class they claim, while 98.3% of the objects within reach (>= 64 pixels) keep one. Smaller
+    # components become unknown (their depth still counts), so specks neither become click targets nor
+    # put a type in the map.
     depth_source: Source = "learned"  # "given": the caller's depth (and W90), as oracle perception
     classes_source: Source = "learned"  # "given": the caller's segmentation, as oracle perception
 
@@ -191,7 +198,8 @@ class LearnedPerception:
             if target_type is not None and target_type in self._channel_of:
                 target = (probs[self._channel_of[target_type]] > self.config.target_probability).numpy()
         depth_small = cv2.resize(depth, (side, side), interpolation=cv2.INTER_NEAREST)
-        instances, instance_channel = split_instances(channel, depth_small)
+        instances, instance_channel = split_instances(channel, depth_small, config=self.config.instances)
+        channel[instances == 0] = 0  # a speck too small to be an instance names nothing in the map either
         names = net.config.classes
         return _Segmented(
             class_ids=self._upsample(self._to_agent_id[channel]),
