@@ -722,8 +722,7 @@ class ContainerSearch(Approach):
 
     def _mark_opened(self, visit: ContainerVisit, obj: str) -> None:
         """The visited container instance was opened (or given up on) for ``obj``: not a candidate again."""
-        point = visit.opened_at or visit.target
-        sightings.mark_searched(self.state.containers, visit.object_type, point, visit.instance_id, obj)
+        sightings.mark_visited(self.state.containers, visit, obj)
 
     def _skip_container(self, obj: str, attempt: Attempt, why: str) -> Outcome:
         visit = attempt.search.visit
@@ -755,7 +754,10 @@ class ContainerSearch(Approach):
                 self.state.memory.instance[visit.object_type] = pending.click.instance_id
                 self.events.append(f"search: opened {visit.object_type}")
             elif pending.click is not None and not self.view.percept.persistent_ids:
+                # a misnamed door, or one standing open already: either way not this search's to retry (the
+                # spot alone was ruled out before, and the same sighting was chosen again 28 times in a row)
                 self._rule_out_click(visit.object_type, pending.click, "it did not open")
+                self._mark_opened(visit, attempt.subgoal.obj)
                 search.visit = None
             elif pending.click is not None:  # nothing changed: it stands open already; look in all the same
                 visit.stage, visit.opened_at = "inspect", pending.click.point

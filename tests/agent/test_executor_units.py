@@ -846,3 +846,50 @@ def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_t
     assert [d.action for d in decisions[:2]] == ["Open", "Open"], decisions
     assert not decisions[-1].plan_done and decisions[-1].pointer == 0, decisions[-1]
     assert any(spot.object_type == openable[0] for spot in executor.state.ignored)
+
+
+def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_again_for_the_search() -> None:
+    # An Open of the search's cabinet changed nothing (a door standing open, or something misnamed a
+    # cabinet): the spot was ruled out but the same sighting was chosen again, 28 failed Opens in a row
+    # until TEACh's failure limit ended the game.
+    from agent.executor import Executor, StepInputs
+    from agent.executor.clicks import Click
+    from agent.executor.executor import _Run
+    from agent.executor.state import Attempt, ContainerVisit, Pending, Sighting
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    _, _, obs = _facing_counter()
+    assert obs.pose is not None and obs.instances is not None
+    onto = load_ontology()
+    camera, pose = Camera(300, 300, 90.0), obs.pose
+    learned = _learned_percept(obs, obs.instances)
+    executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
+    cabinet = Sighting("Cabinet", (pose.x + 0.4, 0.6, pose.z + 0.6), 5, 900)
+    executor.state.containers.append(cabinet)
+    (subgoal,) = parse_subgoals("Pickup Bowl", onto)
+    attempt = Attempt(0, subgoal, first_step=0)
+    attempt.search.visit = ContainerVisit("Cabinet", cabinet.point, 0.0)
+    executor.state.attempt = attempt
+    click = Click(150, 150, 0.5, 0.5, 9, (pose.x + 0.3, 0.7, pose.z + 0.5))
+    semantic_map = SemanticMap(camera, pose)
+    semantic_map.update(learned, pose)
+    view = _first_view(semantic_map, learned, camera, pose)
+    inputs = StepInputs(1, pose, view, obs, digest(obs, SuccessConfig()), False)
+    run = _Run(
+        ontology=onto,
+        navigator=executor.navigator,
+        rng=executor.rng,
+        config=executor.config,
+        state=executor.state,
+        inputs=inputs,
+        plan=[subgoal],
+        pointer=0,
+    )
+
+    run._judge_search_action(Pending("Open", "search", 0, pose, click=click), success=False)
+
+    assert attempt.search.visit is None
+    assert cabinet.searched_for == ["Bowl"], "the search moves on to another container"
