@@ -324,6 +324,37 @@ def test_a_toggle_that_changes_no_geometry_is_seen_in_the_objects_colour() -> No
     assert unchanged.success is False
 
 
+def test_with_rgb_only_an_appliance_switched_on_is_seen_though_its_glow_saturates() -> None:
+    """TEACh sends RGB only. A switched-on appliance glows bright enough to clip, and the thumbnail
+    comparison skipped every cell with a clipped pixel: in the learned games each ToggleOn was judged a
+    failure and clicked again ("already in that state"). A dark 60x60 px machine on a grey wall turns
+    saturated orange: every thumbnail cell it touches holds a clipped pixel."""
+    wall = np.full((300, 300, 3), 120, dtype=np.uint8)
+    off, on = wall.copy(), wall.copy()
+    off[120:180, 125:185] = (64, 51, 77)
+    on[120:180, 125:185] = (255, 160, 77)
+
+    verdict = infer_success(
+        "ToggleOn",
+        *_digests(Observation(rgb=off), Observation(rgb=on)),
+        reported=None,
+        poses=None,
+        colours=None,
+        config=SUCCESS,
+    )
+    still = infer_success(
+        "ToggleOn",
+        *_digests(Observation(rgb=on), Observation(rgb=on)),
+        reported=None,
+        poses=None,
+        colours=None,
+        config=SUCCESS,
+    )
+
+    assert verdict.success is True, verdict.evidence
+    assert still.success is False
+
+
 # ----- EDH history replay and frames --------------------------------------------------------------------
 
 
