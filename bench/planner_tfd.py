@@ -37,7 +37,7 @@ SR_BAR = 0.60  # the planner issue's bar on SR with the model planner and oracle
 def checkpoint_summary() -> dict[str, Any]:
     """Which planner checkpoint ran: its recipe, size, training steps and dev loss."""
     meta = json.loads(CHECKPOINT_META.read_text(encoding="utf-8"))
-    keys = ("recipe", "architecture", "parameters", "step", "dev_loss", "data_fingerprint")
+    keys = ("recipe", "architecture", "parameters", "step", "dev_loss", "data_fingerprint", "navigate_bias")
     return {key: meta.get(key) for key in keys}
 
 

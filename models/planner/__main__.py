@@ -1,4 +1,4 @@
-"""``python -m models.planner build-data|train|evaluate|predict|export``: the language planner's CLI."""
+"""``python -m models.planner build-data|train|evaluate|calibrate|predict|export``: the planner's CLI."""
 
 from __future__ import annotations
 
@@ -104,7 +104,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
     generator = SubgoalGenerator.from_directory(
-        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams)
+        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias)
     )
     sets = {}
     if args.data is not None:
@@ -134,12 +134,48 @@ def _evaluate(args: argparse.Namespace) -> int:
             "recipe": meta.get("recipe"),
             "step": meta.get("step"),
             "num_beams": args.beams,
+            "navigate_bias": generator.navigate_bias,
             "limit": args.limit,
             "sets": [report.as_json() for report in reports],
         }
         args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
         print(f"wrote {args.out}")
     return 0
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    import torch
+
+    from models.planner.calibrate import best_bias, record_bias, score_biases
+    from models.planner.modeling import load_planner_model
+
+    torch.set_num_threads(args.threads)
+    ontology = load_ontology()
+    available = DatasetFiles(args.data).evaluation_sets()
+    unknown = [name for name in args.sets if name not in available]
+    if unknown:
+        raise SystemExit(f"unknown evaluation set(s) {unknown}; {args.data} has: {', '.join(available)}")
+    sets = {name: read_examples(available[name]) for name in args.sets}
+    planner = load_planner_model(args.checkpoint)
+    scores = score_biases(planner, ontology, sets, args.biases, args.beams, args.batch_size)
+    print("| Navigate bias | " + " | ".join(sets) + " | pooled |")
+    print("|---|" + "---|" * (len(sets) + 1))
+    for score in scores:
+        cells = " | ".join(f"{score.exact_match[name]:.1%}" for name in sets)
+        print(f"| {score.bias:g} | {cells} | {score.pooled:.1%} |")
+    chosen = best_bias(scores)
+    print(f"best: {chosen.bias:g} (pooled exact match {chosen.pooled:.1%})")
+    if args.write:
+        record_bias(args.checkpoint, scores, list(sets))
+        print(f"recorded in {args.checkpoint / 'planner_meta.json'}")
+    return 0
+
+
+def _biases(text: str) -> list[float]:
+    try:
+        return [float(value) for value in text.split(",") if value.strip()]
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"biases are numbers joined by commas, got {text!r}") from error
 
 
 def _export(args: argparse.Namespace) -> int:
@@ -170,7 +206,7 @@ def _predict(args: argparse.Namespace) -> int:
     history = parse_subgoals(args.history, ontology) if args.history else []
     source = format_planner_input(turns, history)
     generator = SubgoalGenerator.from_directory(
-        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams)
+        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias)
     )
     prediction = generator.predict(source)
     print(f"input:     {source}")
@@ -245,7 +281,21 @@ def _parser() -> argparse.ArgumentParser:
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy machine)"
     )
     evaluate.add_argument("--limit", type=int, default=0, help="evaluate the first N examples of each set")
+    evaluate.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
     evaluate.set_defaults(run=_evaluate)
+
+    calibrate = commands.add_parser(
+        "calibrate", help="choose the Navigate bias on held-out sets (not the reported ones) and record it"
+    )
+    calibrate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
+    calibrate.add_argument("--data", type=Path, required=True, help="folder written by build-data")
+    calibrate.add_argument("--sets", nargs="+", required=True, help="e.g. teach_valid_seen_edh")
+    calibrate.add_argument("--biases", type=_biases, default=[0.0, 0.5, 1.0, 1.5, 2.0])
+    calibrate.add_argument("--write", action="store_true", help="record the best in planner_meta.json")
+    calibrate.add_argument("--batch-size", type=int, default=32)
+    calibrate.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    calibrate.add_argument("--threads", type=int, default=1)
+    calibrate.set_defaults(run=_calibrate)
 
     predict = commands.add_parser("predict", help="plan one dialogue or instruction")
     predict.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
@@ -253,6 +303,7 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--instruction", help="an ALFRED-style instruction")
     predict.add_argument("--history", help="history subgoals, e.g. 'Pickup Mug, Place CoffeeMachine'")
     predict.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    predict.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
     predict.set_defaults(run=_predict)
 
     export = commands.add_parser("export", help="make a finished run the default checkpoint, with its card")

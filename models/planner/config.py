@@ -71,6 +71,8 @@ class GenerationConfig:
 
     num_beams: int = 4
     max_new_tokens: int = 300  # tokens; the seed's "maximum length of generated subgoal"
+    navigate_bias: float | None = None  # added to the Navigate word's logit at each step of a decoder with a
+    # plan vocabulary; None: the checkpoint's calibrated value (``calibrate``: planner_meta.json), else 0
 
 
 @dataclass(frozen=True)
