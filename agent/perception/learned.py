@@ -7,7 +7,9 @@ subgoal's class has probability over 0.5). The segmentation network's class prob
 and its per-pixel colour expert's, ``models/perception/colour.py``) enter the map as
 their argmax (the map keeps one class per voxel), after dropping to "unknown" the pixels whose top class
 is less likely than ``min_class_probability``: an unsure pixel still blocks space but names nothing.
-Instances come from ``models.perception.instances`` (components per class cut at depth discontinuities).
+Instances come from ``models.perception.instances`` (components per class cut at depth discontinuities);
+a component too small to be an object within reach (``LearnedConfig.instances``) is mostly colour bled onto a
+neighbour, so its pixels name nothing.
 
 Both networks run at their own small input side (as shipped: 96 pixels for depth, 192 for segmentation;
 the frame is area-downscaled) and their outputs are resized back to the camera's size by nearest neighbour,
