@@ -50,7 +50,15 @@ from agent.mapping import MapConfig, SemanticMap, render_map_png
 from agent.navigation import make_navigator
 from agent.navigation.base import Navigator
 from agent.navigation.fmm import FmmConfig, FmmNavigator
-from agent.perception import NetworkPaths, Observation, ObservationError, Perception, make_perception
+from agent.perception import (
+    HandRegion,
+    NetworkPaths,
+    Observation,
+    ObservationError,
+    Perception,
+    make_perception,
+    without_hand,
+)
 from agent.planning import (
     DialogueTurn,
     Planner,
@@ -195,6 +203,7 @@ class AgentSession:
     progress_replans: int = 0  # re-plans made because the plan ran out or failed
     networks: NetworkPaths = field(default_factory=NetworkPaths)  # the learned back-end's checkpoints
     success_config: SuccessConfig = field(default_factory=SuccessConfig)
+    hand: HandRegion = field(default_factory=HandRegion)  # where a held object shows in the frame
 
     @classmethod
     def start(
@@ -378,6 +387,10 @@ class AgentSession:
             self.executor.navigator.record_collision(previous, self.last_action, semantic_map.frame)
         holding = self._holding_now(success.success)
         held_type = self._held_type_now(success.success) if holding else None
+        hand_class_ids = None
+        if holding and percept.depth_far is not None:  # estimated depth cannot tell the hand by nearness
+            hand_class_ids = np.where(self.hand.mask(*percept.depth.shape), percept.class_ids, 0)
+            percept = without_hand(percept, self.hand)
         stats = semantic_map.update(percept, pose, holding=holding)
         mapped = time.perf_counter()
         view = SessionMapView(
@@ -392,6 +405,7 @@ class AgentSession:
             explore_attempts=self.executor.state.explore_attempts,
             click_config=self.executor.config.click,
             stand_clearance_m=self.executor.config.stand_clearance_m,
+            hand_class_ids=hand_class_ids,
         )
         inputs = StepInputs(index, pose, view, obs, frame_digest, success.success)
         decision = self.executor.decide(inputs, self.plan, self.pointer)
@@ -607,6 +621,8 @@ class AgentSession:
                 percept = self.perception_backend.perceive(obs, target_type=None)
             except ObservationError:
                 continue  # a frame this back-end cannot read (TEACh's RGB-only history, oracle perception)
+            if held and percept.depth_far is not None:
+                percept = without_hand(percept, self.hand)
             semantic_map.update(percept, pose, holding=held)
             if entry.action in OBJECT_ACTIONS and entry.x is not None and entry.y is not None:
                 self._remember_click(entry, percept.depth, pose)

@@ -18,7 +18,7 @@ from agent.executor.choice import InstanceChoice
 from agent.executor.clicks import Click
 from agent.executor.mapview import IgnoredSpot, MapCluster
 from agent.executor.state import Attempt
-from agent.executor.step import Act, Outcome
+from agent.executor.step import Act, Done, Outcome
 from agent.geometry import project_points
 from agent.mapping import GridFrame
 from agent.navigation.base import NavGoal, body_fits
@@ -39,6 +39,11 @@ WHERE_PUT_LIFT_M = 0.03
 WHERE_PUT_HIDDEN_M = 0.4
 """Metres: a pixel whose surface is this much nearer than the remembered spot hides it (an X as tall as
 this, standing on the spot, is itself nearer than the spot)."""
+SLOT_RECEPTACLES: frozenset[str] = frozenset({"Toaster"})
+"""Receptacles that hold what goes in upright in a slot, its top showing a few pixels above their own."""
+SLOT_ABOVE = 0.01
+"""Share of the frame's height over a slot receptacle's top that a Pickup of what stands in it aims at (a
+slice in a toaster shows 6-8 of 300 rows over it from 1.3-1.5 m)."""
 
 
 class Approach(InstanceChoice):
@@ -93,6 +98,14 @@ class Approach(InstanceChoice):
             attempt.unreachable.append((cluster.x, cluster.z))
             self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
         return self._search(obj, attempt)
+
+    def _navigating_to_pick_up(self, obj: str) -> bool:
+        """Whether this subgoal is Navigate(X) and the plan's next action on anything is Pickup(X)."""
+        current = self.plan[self.pointer]
+        if current.action is not A.NAVIGATE or current.obj != obj:
+            return False
+        upcoming = next((s for s in self.plan[self.pointer + 1 :] if s.action is not A.NAVIGATE), None)
+        return upcoming is not None and upcoming.action is A.PICKUP and upcoming.obj == obj
 
     def _needs_inside(self, obj: str) -> bool:
         """Whether the plan is about to open the container X or put something into it: then the agent
@@ -238,16 +251,24 @@ class Approach(InstanceChoice):
     def _click_where_put(self, subgoal: Subgoal, attempt: Attempt) -> Click | None:
         """Learned segmentation may not recognise an X the agent itself put down or sliced (a bowl under the
         running tap reads as the sink basin), yet where it is is known (``Memory.where``): a Pickup of X
-        clicks the pixel where that spot shows, when it is in view, within reach and not hidden behind
-        something nearer; at most ``WHERE_PUT_CLICKS`` times a subgoal. With true segmentation an X that
-        does not show is not there, so this is for learned perception only."""
-        where = self.state.memory.where.get(subgoal.obj)
+        clicks where that spot shows (``_where_put_pixel``), at most ``WHERE_PUT_CLICKS`` times a subgoal."""
+        if subgoal.action is not A.PICKUP or attempt.where_put_clicks >= WHERE_PUT_CLICKS:
+            return None
+        click = self._where_put_pixel(subgoal.obj)
+        if click is not None:
+            attempt.where_put_clicks += 1
+        return click
+
+    def _where_put_pixel(self, obj: str) -> Click | None:
+        """The pixel where the spot the agent put X down shows, when it is in view, within reach and not
+        hidden behind something nearer; for what stands in a slot (a slice in a toaster) the pixel just over
+        the middle of the receptacle's top (``_over_slot``). With true segmentation an X that does not show
+        is not there, so this is for learned perception only."""
+        where = self.state.memory.where.get(obj)
         percept = self.view.percept
         if (
-            subgoal.action is not A.PICKUP
-            or where is None
+            where is None
             or percept.persistent_ids
-            or attempt.where_put_clicks >= WHERE_PUT_CLICKS
             or math.hypot(where[0] - self.pose.x, where[2] - self.pose.z) > self.cfg.click.reach_m
         ):
             return None
@@ -260,7 +281,8 @@ class Approach(InstanceChoice):
         row, col = int(rows[0]), int(cols[0])
         if percept.depth[row, col] < depths[0] - WHERE_PUT_HIDDEN_M:
             return None
-        attempt.where_put_clicks += 1
+        if any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())):
+            row, col = _over_slot(percept.instances, row, col)
         return Click(
             row=row, col=col, x=col / W, y=row / H, instance_id=int(percept.instances[row, col]), point=where
         )
@@ -279,6 +301,9 @@ class Approach(InstanceChoice):
             attempt.bad_stands.append((self.pose.x, self.pose.z))
             self.events.append(f"Observe({obj}) but not within reach from here; stepping closer")
             return self._approach(obj, attempt)
+        put_here = not attempt.any_instance and obj in self.state.belief.placed
+        if put_here and self._navigating_to_pick_up(obj) and self._where_put_pixel(obj) is not None:
+            return Done(f"standing where {obj} was put down, not recognised there: Pickup aims at the spot")
         if not attempt.look_sweep and attempt.destination_looks == 0:
             want = self._horizon_for(cluster)
             options = sorted(self._horizons(), key=lambda h: (abs(h - want), h))
@@ -322,3 +347,19 @@ class Approach(InstanceChoice):
             attempt.bad_stands.append((self.pose.x, self.pose.z))
             self.events.append(f"FindTargetNearDestination({obj}): not seen from here; moving around")
         return self._approach(obj, attempt)
+
+
+def _over_slot(instances: np.ndarray, row: int, col: int) -> tuple[int, int]:
+    """The pixel to click for what stands in the slot of the instance at (row, col): a toaster holds its
+    slice upright in the middle, its top showing a few pixels over the toaster's, and the network reads
+    that sliver as the toaster, the wall or nothing. So: the instance's middle column, ``SLOT_ABOVE`` of the
+    frame's height over its top edge (the median over its columns of its highest row there, which a sliver
+    read as the toaster does not move). (row, col) itself when no instance shows there."""
+    owner = int(instances[row, col])
+    if owner == 0:
+        return row, col
+    mask = instances == owner
+    columns = np.flatnonzero(mask.any(axis=0))
+    top = int(np.median(mask[:, columns].argmax(axis=0)))
+    above = max(1, round(SLOT_ABOVE * instances.shape[0]))
+    return max(top - above, 0), int(np.median(columns))

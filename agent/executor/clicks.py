@@ -106,19 +106,18 @@ def usable_pixels(
 
 def held_type_in_view(
     class_ids: np.ndarray,
-    distances: np.ndarray,
+    hand: np.ndarray,
     type_names: tuple[str, ...],
     pickupable: frozenset[str],
     wanted: str,
-    config: ClickConfig,
     min_share: float,
 ) -> str | None:
     """The pickupable type a frame shows in the hand when it is clearly not ``wanted`` (a Pickup Knife
-    that took a plate): of the pixels nearer than ``holding_min_distance_m`` with a pickupable class
-    (``class_ids`` k names ``type_names[k - 1]``), at least ``min_share`` of the frame, at least 60% one
-    other type and at most 25% ``wanted``. None when the hand shows ``wanted``, nothing, or nothing clear."""
-    near = (distances > 0) & (distances < config.holding_min_distance_m)
-    ids, counts = np.unique(class_ids[near], return_counts=True)
+    that took a plate): of the ``hand`` pixels (bool [H, W]: nearer than ``holding_min_distance_m`` with
+    true depth, the hand's region with estimated depth) with a pickupable class (``class_ids`` k names
+    ``type_names[k - 1]``), at least ``min_share`` of the frame, at least 60% one other type and at most
+    25% ``wanted``. None when the hand shows ``wanted``, nothing, or nothing clear."""
+    ids, counts = np.unique(class_ids[hand], return_counts=True)
     shown = {
         type_names[i - 1]: int(n)
         for i, n in zip(ids.tolist(), counts.tolist(), strict=True)

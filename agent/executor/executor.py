@@ -297,16 +297,16 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
 
     def _held_look(self, wanted: str) -> str | None:
         """What the hand shows after a Pickup of ``wanted``, when it is clearly something else."""
-        classes = self.view.map.classes
+        view = self.view
+        classes = view.map.classes
         pickupable = frozenset(name for name in classes.types if self.onto.get(name).pickupable)
+        if view.hand_class_ids is not None:  # estimated depth: the hand's region, as the network read it
+            class_ids, hand = view.hand_class_ids, view.hand_class_ids > 0
+        else:
+            class_ids = view.percept.class_ids
+            hand = (view.distances > 0) & (view.distances < self.cfg.click.holding_min_distance_m)
         return held_type_in_view(
-            self.view.percept.class_ids,
-            self.view.distances,
-            classes.types,
-            pickupable,
-            wanted,
-            self.cfg.click,
-            self.cfg.held_check_min_share,
+            class_ids, hand, classes.types, pickupable, wanted, self.cfg.held_check_min_share
         )
 
     def _wrong_pickup(self, subgoal: Subgoal, click: Click, looks_like: str) -> None:

@@ -155,12 +155,16 @@ class SessionMapView:
         explore_attempts: Mapping[str, int],
         click_config: ClickConfig,
         stand_clearance_m: float = AGENT_RADIUS_M,
+        hand_class_ids: np.ndarray | None = None,
     ) -> None:
         self.map = semantic_map
         self.percept = percept
         self.camera = camera
         self.pose = pose
         self.holding = holding
+        self.hand_class_ids = hand_class_ids
+        """uint8 [H, W]: the classes the network gave the hand's region, 0 elsewhere, when the session
+        took that region out of ``percept`` (``without_hand``); None otherwise."""
         self.click_config = click_config
         self.stand_clearance_m = stand_clearance_m  # metres the body's centre keeps from obstacles
         self._last_success = last_success

@@ -12,11 +12,13 @@ from types import MappingProxyType
 
 from agent.geometry import Camera
 from agent.perception.base import (
+    HandRegion,
     Observation,
     ObservationError,
     Percept,
     Perception,
     confident_depth,
+    without_hand,
 )
 from agent.perception.learned import (
     LearnedPerception,
@@ -60,6 +62,7 @@ def make_perception(name: str, camera: Camera, networks: NetworkPaths = NetworkP
 
 __all__ = [
     "PERCEPTION_BACKENDS",
+    "HandRegion",
     "LearnedPerception",
     "NetworkPaths",
     "Observation",
@@ -69,4 +72,5 @@ __all__ = [
     "Perception",
     "confident_depth",
     "make_perception",
+    "without_hand",
 ]

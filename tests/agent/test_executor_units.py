@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -520,7 +521,8 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
         for instance_id, name in frame.legend.items():
             class_ids[frame.instances == instance_id] = classes.id_of(name)
         distances = pixel_distances(frame.depth, camera)
-        return held_type_in_view(class_ids, distances, classes.types, pickupable, wanted, CONFIG, 0.004)
+        hand = (distances > 0) & (distances < CONFIG.holding_min_distance_m)
+        return held_type_in_view(class_ids, hand, classes.types, pickupable, wanted, 0.004)
 
     assert hand_reads(plate.object_id, "Knife") == "Plate"
     assert hand_reads(plate.object_id, "Plate") is None  # the hand shows what was wanted
@@ -683,6 +685,93 @@ def test_with_learned_segmentation_an_x_put_down_but_not_recognised_is_picked_up
         percept.depth, percept.depth_valid, percept.class_ids, unrecognised, {counter_id: "CounterTop"}
     )
     assert _decide_pickup_of_put_down_tomato(oracle, obs, where).action != "Pickup"
+
+
+def _slice_in_a_toaster() -> tuple[Simulator, WorldObject, WorldObject, Observation]:
+    """A kitchen with a bread slice standing in a toaster and the agent at the toaster looking at it:
+    (simulator, toaster, slice, what the agent sees)."""
+    from harness.physics import move_with_contents, resting_center, slice_object
+    from harness.worldgen import generate_kitchen
+    from symbolic.ontology import load_ontology
+
+    world = generate_kitchen(3, require=(("Toaster", 1), ("Bread", 1)))
+    toaster = world.of_type("Toaster")[0]
+    piece = slice_object(world, world.of_type("Bread")[0], load_ontology())[0]
+    spot = resting_center(world, piece, toaster)
+    assert spot is not None
+    move_with_contents(world, piece, spot[0])
+    piece.parent_id = toaster.object_id
+    sim = simulator(world)
+    _stand_facing(sim, toaster)
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.instances is not None
+    assert (obs.instances == world.instance_ids[piece.object_id]).sum() > 5, (
+        "the slice shows over the toaster"
+    )
+    return sim, toaster, piece, obs
+
+
+def _decide_for_toast(
+    subgoals: str, percept: Percept, obs: Observation, where: tuple[float, float, float]
+) -> Decision:
+    """The executor's first decision for ``subgoals`` when the agent itself put the bread slice into the
+    toaster, its Place click at ``where``, seeing ``percept``."""
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    assert obs.pose is not None
+    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
+    semantic_map = SemanticMap(camera, pose)
+    semantic_map.update(percept, pose)
+    belief = BeliefState.initial(onto)
+    belief.placed.add("BreadSliced")
+    belief.inside["BreadSliced"] = "Toaster"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    executor.state.memory.instance["BreadSliced"] = 1  # its id in the frame it was picked up in
+    executor.state.memory.where["BreadSliced"] = where
+    executor.state.memory.placed_into["BreadSliced"] = ["Toaster"]
+    return executor.decide(
+        StepInputs(
+            0, pose, _first_view(semantic_map, percept, camera, pose), obs, digest(obs, SuccessConfig()), None
+        ),
+        parse_subgoals(subgoals, onto),
+        0,
+    )
+
+
+@pytest.mark.parametrize("read_as", ["nothing", "toaster"])
+def test_with_learned_segmentation_a_slice_put_into_a_toaster_is_picked_up_over_its_top(read_as: str) -> None:
+    # The toasted slice shows as a sliver over the toaster that the network reads as the toaster or as
+    # nothing: a Pickup clicked where the Place had clicked, on the toaster ("cannot be picked up"), and the
+    # Navigate before it gave the slice up for any other. Three toast tasks of twelve failed there.
+    sim, toaster, piece, obs = _slice_in_a_toaster()
+    assert obs.instances is not None
+    toaster_id, slice_id = (sim.world.instance_ids[o.object_id] for o in (toaster, piece))
+    unrecognised = obs.instances.copy()
+    unrecognised[obs.instances == slice_id] = 0 if read_as == "nothing" else toaster_id
+    percept = _learned_percept(obs, unrecognised)
+    toaster_class = percept.class_ids[obs.instances == toaster_id][0]
+    percept.class_ids[obs.instances == slice_id] = 0 if read_as == "nothing" else toaster_class
+    kept = {i: name for i, name in percept.instance_types.items() if i != slice_id}
+    percept = dataclasses.replace(percept, instance_types=kept)
+    yaw = math.radians(sim.world.agent.yaw)  # the Place clicked the toaster off its middle, to the side
+    aside = 0.3 * max(toaster.size[0], toaster.size[2])
+    where = (
+        toaster.center[0] + aside * math.cos(yaw),
+        toaster.center[1],
+        toaster.center[2] - aside * math.sin(yaw),
+    )
+
+    pickup = _decide_for_toast("Pickup BreadSliced", percept, obs, where)
+
+    assert pickup.action == "Pickup", pickup
+    assert pickup.x is not None and pickup.y is not None
+    assert sim.resolve_click(pickup.x, pickup.y, "Pickup") == piece.object_id
+    navigate = _decide_for_toast("Navigate BreadSliced, Pickup BreadSliced", percept, obs, where)
+    assert navigate.action == "Pickup", navigate  # here already: the Navigate is done where it was put
 
 
 # ----- what learned segmentation gets wrong ---------------------------------------------------------------

@@ -231,3 +231,40 @@ def test_without_a_start_pose_history_and_live_frames_land_in_one_frame() -> Non
     overlap = (counters_before & counters_after).sum() / counters_before.sum()
     assert overlap > 0.9  # the live frame sees the counters where the history put them
     assert np.isclose(session.pose.x, 0.0) and np.isclose(session.pose.z, 0.0)  # type: ignore[union-attr]
+
+
+def test_with_estimated_depth_the_held_object_is_neither_mapped_nor_clicked() -> None:
+    # Learned depth put a held plate about 1 m ahead (0.4 m true) and the network read it as the sink
+    # basin: the map gained a basin before the eye wherever the agent went, and "Place SinkBasin" clicked
+    # the hand, which set the plate on the counter behind it. The hand's region is no evidence then.
+    world = kitchen()
+    sim = simulator(world)
+    plate = world.of_type("Plate")[0]
+    world.agent.held, plate.parent_id = plate.object_id, None
+    sink = world.of_type("SinkBasin")[0]
+    sim.world.agent.yaw = 0
+    frame = sim.observe()
+    for yaw in (90, 180, 270):  # face a way that shows no sink, so only the hand could read as one
+        if sink.object_id not in frame.object_ids.values():
+            break
+        sim.world.agent.yaw = yaw
+        frame = sim.observe()
+    assert sink.object_id not in frame.object_ids.values()
+    hand = frame.instances == world.instance_ids[plate.object_id]
+    assert hand.sum() > 1000, "the held plate fills the lower right of the view"
+    depth = np.where(hand, np.float32(1.0), frame.depth)  # as the network reads it
+    legend = {**frame.legend, world.instance_ids[plate.object_id]: "SinkBasin"}
+    obs = replace(
+        observation(frame, sim.world.agent),
+        depth=depth,
+        depth_uncertainty=np.full(depth.shape, 0.1, dtype=np.float32),
+        legend=legend,
+        held_object="Plate",
+    )
+    session = _session("Navigate SinkBasin, Place SinkBasin")
+
+    decision = session.step_once(obs)
+
+    assert session.semantic_map is not None
+    assert not session.semantic_map.presence("SinkBasin").any()
+    assert decision.action != "Place", decision
