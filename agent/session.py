@@ -389,8 +389,9 @@ class AgentSession:
         held_type = self._held_type_now(success.success) if holding else None
         hand_class_ids = None
         if holding and percept.depth_far is not None:  # estimated depth cannot tell the hand by nearness
-            hand_class_ids = np.where(self.hand.mask(*percept.depth.shape), percept.class_ids, 0)
-            percept = without_hand(percept, self.hand)
+            hand = self.hand.mask(self.camera)
+            hand_class_ids = np.where(hand, percept.class_ids, 0)
+            percept = without_hand(percept, hand)
         stats = semantic_map.update(percept, pose, holding=holding)
         mapped = time.perf_counter()
         view = SessionMapView(
@@ -622,7 +623,7 @@ class AgentSession:
             except ObservationError:
                 continue  # a frame this back-end cannot read (TEACh's RGB-only history, oracle perception)
             if held and percept.depth_far is not None:
-                percept = without_hand(percept, self.hand)
+                percept = without_hand(percept, self.hand.mask(self.camera))
             semantic_map.update(percept, pose, holding=held)
             if entry.action in OBJECT_ACTIONS and entry.x is not None and entry.y is not None:
                 self._remember_click(entry, percept.depth, pose)

@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from agent.geometry import Pose
+from agent.geometry import Camera, Pose, pixel_ray_slopes
 
 
 class ObservationError(ValueError):
@@ -85,40 +85,40 @@ class Percept:
 
 @dataclass(frozen=True)
 class HandRegion:
-    """Where what the agent holds shows in its frames, as shares of the frame (top, bottom, left, right).
+    """The directions in which what the agent holds shows: bounds on the camera-frame ray slopes x/z
+    (right over forward) and y/z (down over forward), so one region serves every resolution and field
+    of view.
 
     The held object rides 0.45 m ahead of the camera, 0.13 m right and down, at most 0.2 m across, as
-    AI2-THOR's hand carries it; measured over every pickupable type in the harness's rooms it covers rows
-    0.53-0.79 and columns 0.53-0.83 of the frame, whatever the pitch. The default adds a 0.02 margin."""
+    AI2-THOR's hand carries it (the harness draws it so). Measured over every pickupable type in the
+    harness's rooms it covers x/z 0.06-0.66 and y/z 0.06-0.58, whatever the pitch; the defaults add 0.04.
+    """
 
-    top: float = 0.51
-    bottom: float = 0.81
-    left: float = 0.51
-    right: float = 0.85
+    x_over_z: tuple[float, float] = (0.02, 0.70)
+    y_over_z: tuple[float, float] = (0.02, 0.625)
 
-    def mask(self, height: int, width: int) -> np.ndarray:
-        """bool [height, width]: the region's pixels."""
-        inside = np.zeros((height, width), dtype=bool)
-        rows = slice(int(self.top * height), int(np.ceil(self.bottom * height)))
-        inside[rows, int(self.left * width) : int(np.ceil(self.right * width))] = True
-        return inside
+    def mask(self, camera: Camera) -> np.ndarray:
+        """bool [H, W]: the pixels whose rays pass through the region."""
+        x_over_z, y_over_z = pixel_ray_slopes(camera)
+        columns = (x_over_z >= self.x_over_z[0]) & (x_over_z <= self.x_over_z[1])  # [W]
+        rows = (y_over_z >= self.y_over_z[0]) & (y_over_z <= self.y_over_z[1])  # [H]
+        return rows[:, None] & columns[None, :]
 
 
-def without_hand(percept: Percept, hand: HandRegion) -> Percept:
-    """The percept with the hand's region unknown: no trusted depth, class or instance there.
+def without_hand(percept: Percept, hand: np.ndarray) -> Percept:
+    """The percept with the hand's pixels (bool [H, W], ``HandRegion.mask``) unknown: no trusted depth,
+    class or instance there.
 
     With true depth the held object is told apart by its nearness (HLSM A.3); an estimated depth puts
     it about 1 m ahead (0.4 m true, the networks rarely saw a held object), where it would be mapped as
     an obstacle and clicked as whatever the network calls it (a held plate read as the sink basin took
     the Place, and the plate went onto the counter instead)."""
-    H, W = percept.depth.shape
-    hidden = hand.mask(H, W)
-    instances = np.where(hidden, 0, percept.instances).astype(percept.instances.dtype)
+    instances = np.where(hand, 0, percept.instances).astype(percept.instances.dtype)
     shown = set(np.unique(instances).tolist())
     return replace(
         percept,
-        depth_valid=percept.depth_valid & ~hidden,
-        class_ids=np.where(hidden, 0, percept.class_ids).astype(np.uint8),
+        depth_valid=percept.depth_valid & ~hand,
+        class_ids=np.where(hand, 0, percept.class_ids).astype(np.uint8),
         instances=instances,
         instance_types={i: name for i, name in percept.instance_types.items() if i in shown},
     )

@@ -11,7 +11,7 @@ from executor_support import execute, kitchen, observation, simulator
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
-from agent.perception import ObservationError
+from agent.perception import HandRegion, ObservationError
 from agent.planning import make_planner
 from agent.session import AgentSession, Mode, SessionLimits
 from symbolic.ontology import load_ontology
@@ -268,3 +268,32 @@ def test_with_estimated_depth_the_held_object_is_neither_mapped_nor_clicked() ->
     assert session.semantic_map is not None
     assert not session.semantic_map.presence("SinkBasin").any()
     assert decision.action != "Place", decision
+
+
+@pytest.mark.parametrize("size, hfov", [(300, 90.0), (900, 90.0), (300, 60.0)])
+def test_the_hand_region_covers_every_held_object_at_any_resolution_and_field_of_view(
+    size: int, hfov: float
+) -> None:
+    from harness.camera import CameraSpec
+    from harness.simulator import Simulator
+    from harness.worldgen import generate_bedroom, generate_living_room
+
+    hand = HandRegion().mask(Camera(size, size, hfov))
+    onto = load_ontology()
+    union = np.zeros_like(hand)
+    covered, seen = 0, set()
+    for world in (kitchen(), generate_living_room(2), generate_bedroom(1)):
+        sim = Simulator(world, CameraSpec(size, size, hfov))
+        for thing in list(world.objects.values()):
+            if not onto.get(thing.object_type).pickupable or thing.object_type in seen:
+                continue
+            seen.add(thing.object_type)
+            world.agent.held = thing.object_id
+            shown = sim.observe().instances == world.instance_ids[thing.object_id]
+            world.agent.held = None
+            assert shown.any(), thing.object_type
+            assert (shown & hand).sum() >= 0.99 * shown.sum(), thing.object_type
+            union |= shown
+            covered += 1
+    assert covered >= 20
+    assert hand.sum() <= 1.6 * union.sum(), "no more of the view is given up than held objects cover"
