@@ -104,16 +104,16 @@ class Approach(InstanceChoice):
         current = self.plan[self.pointer]
         if current.action is not A.NAVIGATE or current.obj != obj:
             return False
-        upcoming = next((s for s in self.plan[self.pointer + 1 :] if s.action is not A.NAVIGATE), None)
-        return upcoming is not None and upcoming.action is A.PICKUP and upcoming.obj == obj
+        upcoming = self._upcoming_actions()
+        return bool(upcoming) and upcoming[0] == Subgoal(A.PICKUP, obj)
 
     def _needs_inside(self, obj: str) -> bool:
         """Whether the plan is about to open the container X or put something into it: then the agent
         stands on its front side, where the inside shows; to close it, any side will do."""
         if obj not in self.onto.enclosing:
             return False
-        upcoming = next((s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE), None)
-        return upcoming is not None and upcoming.obj == obj and upcoming.action in (A.OPEN, A.PLACE)
+        upcoming = self._upcoming_actions()
+        return bool(upcoming) and upcoming[0].obj == obj and upcoming[0].action in (A.OPEN, A.PLACE)
 
     def _sides(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
         """The four sides of a piece of furniture (``_side_floor``), its known front first (``_known_front``),

@@ -50,6 +50,10 @@ WASH_BASINS: frozenset[str] = frozenset({"SinkBasin", "Sink", "BathtubBasin", "B
 class InstanceChoice(StepContext):
     """The ranking of visible and mapped instances of the subgoal's type (module docstring)."""
 
+    def _upcoming_actions(self) -> list[Subgoal]:
+        """The plan's subgoals from the pointer on that act on something (Navigates left out)."""
+        return [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
+
     def _just_put_down(self, obj: str) -> bool:
         """Whether the plan's last interaction put an ``obj`` down (only Navigates since): taking up the same
         type again then means another one; a processing step in between (a toaster switched on) means
@@ -75,7 +79,7 @@ class InstanceChoice(StepContext):
         something into it, carry it somewhere new or back to the counter) means the same one. Without the
         instance's history (an EDH session's past), a Pickup means another, as in TEACh's "put all" tasks.
         """
-        upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
+        upcoming = self._upcoming_actions()
         if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
             return False
         if self._just_put_down(obj):
@@ -189,7 +193,7 @@ class InstanceChoice(StepContext):
         Book, Place CoffeeTable" means a book not yet on the coffee table); else None. Not for processing
         places: a mug already in the sink is still to be washed there. ``y`` (metres) must not lie below
         the receptacle's top: a bowl in the cabinet under a counter is not on the counter."""
-        upcoming = [s for s in self.plan[self.pointer :] if s.action is not A.NAVIGATE]
+        upcoming = self._upcoming_actions()
         if not upcoming or upcoming[0] != Subgoal(A.PICKUP, obj):
             return None
         destination = next((s for s in upcoming[1:] if s.action in (A.PICKUP, A.PLACE)), None)
