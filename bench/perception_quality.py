@@ -4,7 +4,9 @@ The issue's bars: depth abs rel ≤ 0.15 and segmentation mIoU ≥ 0.6 on valid_
 δ<1.25, RMSE, task-class mIoU and the IoU of every class TEACh tasks name. Frames are rendered by the
 harness from valid_unseen worlds (``harness.perception_data``; never seen in training) unless ``--frames``
 names a folder in the dataset layout. ``--compare-depth DIR ...`` evaluates further depth checkpoints on
-the same frames (the issue asks which bins serve better: HLSM's 50 x 0.1 m or TEACh's 100 x 5 cm).
+the same frames (the issue asks which bins serve better: HLSM's 50 x 0.1 m or TEACh's 100 x 5 cm). The
+networks run in the arithmetic the agent uses (``LearnedConfig.precision``); when that is bfloat16, the
+headline metrics in float32 are given beside (``float32_reference``).
 
 Run: ``.venv/bin/python -m bench.perception_quality [--worlds 60]``; writes
 ``bench/results/perception_quality.json``.
@@ -25,7 +27,7 @@ from harness.camera import CameraSpec
 from harness.perception_data import render_frames
 from models.perception.dataset import load_frames
 from models.perception.evaluate import evaluate_model
-from models.perception.network import load_checkpoint, read_info
+from models.perception.network import inference_dtype, load_checkpoint, read_info
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_quality.json"
 SEED = 0
@@ -46,6 +48,16 @@ def _depth_entry(directory: Path, metrics: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _headline(depth: dict[str, Any], segmentation: dict[str, Any]) -> dict[str, float]:
+    return {
+        "depth_abs_rel": depth["abs_rel"],
+        "depth_delta_1": depth["delta_1"],
+        "segmentation_miou": segmentation["miou"],
+        "segmentation_task_miou": segmentation["task_miou"],
+        "segmentation_pixel_accuracy": segmentation["pixel_accuracy"],
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         prog="python -m bench.perception_quality", description=__doc__.splitlines()[0]
@@ -61,6 +73,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     config = LearnedConfig()
+    dtype = inference_dtype(config.precision)
     with tempfile.TemporaryDirectory() as scratch:
         root = args.frames
         if root is None:
@@ -70,14 +83,22 @@ def main() -> None:
             )
         frames = load_frames(root, FRAME_SIDE, use_cache=args.frames is not None)
         depth_dirs = [config.networks.depth, *args.compare_depth]
-        depth = [_depth_entry(d, evaluate_model(load_checkpoint(d), frames)) for d in depth_dirs]
-        seg = evaluate_model(load_checkpoint(config.networks.segmentation), frames)
+        depth = [_depth_entry(d, evaluate_model(load_checkpoint(d), frames, dtype)) for d in depth_dirs]
+        seg = evaluate_model(load_checkpoint(config.networks.segmentation), frames, dtype)
+        float32 = None
+        if dtype != torch.float32:  # what the arithmetic costs in quality, on the same frames
+            float32 = _headline(
+                evaluate_model(load_checkpoint(config.networks.depth), frames),
+                evaluate_model(load_checkpoint(config.networks.segmentation), frames),
+            )
     result = {
         "frames": {
             "source": str(args.frames or "rendered valid_unseen"),
             "count": len(frames),
             "side": FRAME_SIDE,
         },
+        "dtype": str(dtype).removeprefix("torch."),
+        "float32_reference": float32,
         "depth": depth[0],
         "depth_compared": depth[1:],
         "segmentation": {"checkpoint": str(config.networks.segmentation), **seg},

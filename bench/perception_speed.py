@@ -8,7 +8,9 @@ with EfficientNet-Lite0, score the next action over a 16-step history). Frames c
 of the harness with fixed seeds. Wall-clock times are reported with the load average (other jobs share
 the two cores) and beside the process's CPU time, which is what a step costs on an idle core. Torch uses
 ``--threads`` intra-op threads (default 1: with two threads on a machine already busy, OpenMP's spinning
-threads made a step ten times slower in our measurements).
+threads made a step ten times slower in our measurements). The networks run in the arithmetic the agent
+uses (``LearnedConfig.precision``, recorded as ``dtype``); when that is bfloat16, the 300x300 step is also
+timed in float32 (``300x300_float32``).
 
 Run: ``.venv/bin/python -m bench.perception_speed [--threads 1]``; writes
 ``bench/results/perception_speed.json``.
@@ -23,6 +25,7 @@ import platform
 import random
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -39,6 +42,7 @@ from harness.render import Renderer
 from harness.splits import world_seed
 from harness.worldgen import WorldGenConfig, generate_world
 from models.goal_transformer.policy import load_goal_policy
+from models.perception.network import inference_dtype
 from symbolic.thor import TEACH_HFOV_DEG
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_speed.json"
@@ -130,10 +134,16 @@ def main() -> None:
             "segmentation": models.segmentation.config.input_side,
         },
     }
+    results["dtype"] = str(inference_dtype(config.precision)).removeprefix("torch.")
     for side in SIDES:
         camera = Camera(side, side, TEACH_HFOV_DEG)
         perception = LearnedPerception(camera, config, models=models)
         results[f"{side}x{side}"] = time_perception(perception, frames(side, args.frames), args.repeats)
+    if inference_dtype(config.precision) != torch.float32:  # what the bfloat16 arithmetic saves
+        exact = LearnedPerception(
+            Camera(300, 300, TEACH_HFOV_DEG), replace(config, precision="float32"), models=models
+        )
+        results["300x300_float32"] = time_perception(exact, frames(300, args.frames), args.repeats)
     if (GT_CHECKPOINT / "config.json").is_file():
         policy = load_goal_policy(GT_CHECKPOINT)
         rgb = frames(300, 1)[0]

@@ -97,6 +97,12 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--eval-side", type=int, default=256)
     check.add_argument("--limit", type=int, default=None)
     check.add_argument("--json", type=Path, default=None, help="also write the metrics here")
+    check.add_argument(
+        "--precision",
+        choices=("auto", "float32", "bfloat16"),
+        default="auto",
+        help="the network's arithmetic; auto (as the agent runs it): bfloat16 where the CPU has it natively",
+    )
     return parser
 
 
@@ -151,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print((out / "config.json").read_text())
         return 0
     torch.set_num_threads(2)
-    metrics = evaluate_checkpoint(args.checkpoint, args.frames, args.eval_side, args.limit)
+    metrics = evaluate_checkpoint(args.checkpoint, args.frames, args.eval_side, args.limit, args.precision)
     if args.json is not None:
         write_metrics(args.json, metrics)
     print(json.dumps(metrics, indent=1, sort_keys=True))

@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 from models.perception.dataset import IGNORE_LABEL, FrameArrays, load_frames
 from models.perception.depth import expected_depth
-from models.perception.network import PerceptionNet, load_checkpoint
+from models.perception.network import PerceptionNet, Precision, inference_dtype, load_checkpoint
 
 DELTA_THRESHOLD = 1.25
 
@@ -89,10 +89,11 @@ def segmentation_metrics(
 
 
 @torch.inference_mode()
-def predict(model: PerceptionNet, rgb: np.ndarray) -> np.ndarray:
+def predict(model: PerceptionNet, rgb: np.ndarray, dtype: torch.dtype = torch.float32) -> np.ndarray:
     """Per-frame predictions at the frames' side: expected depth (float32 metres) or class (uint8).
 
-    ``rgb`` uint8 [N, H, W, 3]; each frame is area-resized to the network's side first.
+    ``rgb`` uint8 [N, H, W, 3]; each frame is area-resized to the network's side first; the network runs
+    in ``dtype`` (``PerceptionNet.infer``), as the agent runs it.
     """
     config = model.config
     N, H, W, _ = rgb.shape
@@ -100,19 +101,21 @@ def predict(model: PerceptionNet, rgb: np.ndarray) -> np.ndarray:
     out = np.empty((N, H, W), dtype=np.float32 if config.task == "depth" else np.uint8)
     for i in tqdm(range(N), desc=f"predicting {config.task}", unit="frame", leave=False):
         small = cv2.resize(rgb[i], (side, side), interpolation=cv2.INTER_AREA)
-        logits = model(torch.from_numpy(small)[None])  # [1, out, side, side]
+        logits = model.infer(torch.from_numpy(small)[None], dtype)  # [1, out, side, side]
         if config.task == "depth":
             assert config.bins is not None
-            result = expected_depth(logits.softmax(dim=1), config.bins)[0].numpy()
+            result = expected_depth(logits.float().softmax(dim=1), config.bins)[0].numpy()
         else:
             result = logits.argmax(dim=1)[0].numpy().astype(np.uint8)
         out[i] = cv2.resize(result, (W, H), interpolation=cv2.INTER_NEAREST)
     return out
 
 
-def evaluate_model(model: PerceptionNet, frames: FrameArrays) -> dict[str, Any]:
-    """The task's metrics as a JSON-ready dict."""
-    pred = predict(model, frames.rgb)
+def evaluate_model(
+    model: PerceptionNet, frames: FrameArrays, dtype: torch.dtype = torch.float32
+) -> dict[str, Any]:
+    """The task's metrics as a JSON-ready dict, the network run in ``dtype``."""
+    pred = predict(model, frames.rgb, dtype)
     if model.config.task == "depth":
         return vars(depth_metrics(pred, frames.depth_mm.astype(np.float32) * 0.001))
     classes = model.config.classes
@@ -134,13 +137,20 @@ def validation_metrics(
 
 
 def evaluate_checkpoint(
-    checkpoint: Path, frames_root: Path, eval_side: int, limit: int | None
+    checkpoint: Path, frames_root: Path, eval_side: int, limit: int | None, precision: Precision = "auto"
 ) -> dict[str, Any]:
-    """Load a checkpoint and a frame folder, evaluate, and say on what."""
+    """Load a checkpoint and a frame folder, evaluate, and say on what and in which arithmetic."""
     model = load_checkpoint(checkpoint)
     frames = load_frames(frames_root, eval_side, limit=limit)
-    metrics = evaluate_model(model, frames)
-    return {"checkpoint": str(checkpoint), "frames": str(frames_root), "count": len(frames), **metrics}
+    dtype = inference_dtype(precision)
+    metrics = evaluate_model(model, frames, dtype)
+    return {
+        "checkpoint": str(checkpoint),
+        "frames": str(frames_root),
+        "count": len(frames),
+        "dtype": str(dtype).removeprefix("torch."),
+        **metrics,
+    }
 
 
 def write_metrics(path: Path, metrics: dict[str, Any]) -> None:

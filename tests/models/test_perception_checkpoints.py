@@ -11,6 +11,7 @@ import models
 from agent.geometry import Camera
 from agent.perception import OraclePerception, make_perception
 from agent.perception.base import Observation
+from agent.perception.learned import LearnedConfig, LearnedPerception
 from harness.camera import CameraSpec
 from harness.navgrid import reachable_grid
 from harness.perception_data import render_frames
@@ -85,6 +86,26 @@ def test_learned_perception_beats_blind_guesses_in_unseen_worlds():
     assert agree > commonest, (
         f"{agree / pixels:.3f} of classes right vs {commonest / pixels:.3f} for one class"
     )
+
+
+def test_bfloat16_arithmetic_sees_what_float32_sees_in_unseen_worlds():
+    """The shipped networks run in bfloat16 on CPUs that have it (a third faster per step): the classes,
+    the depth and which depths are trusted come out as in float32 on all but a sliver of pixels (measured:
+    99.8-99.99% keep their class, 99.1-99.4% their trust, the median depth moves 0.1%)."""
+    camera = Camera(300, 300, 90.0)
+    exact = LearnedPerception(camera, LearnedConfig(precision="float32"))
+    rounded = LearnedPerception(camera, LearnedConfig(precision="bfloat16"))
+    same_class, same_trust, relative, pixels = 0, 0, [], 0
+    for frame in _unseen_frames(300, 4):
+        a = exact.perceive(Observation(rgb=frame.rgb), target_type="Mug")
+        b = rounded.perceive(Observation(rgb=frame.rgb), target_type="Mug")
+        same_class += int((a.class_ids == b.class_ids).sum())
+        same_trust += int((a.depth_valid == b.depth_valid).sum())
+        relative.append(np.abs(b.depth - a.depth) / a.depth)
+        pixels += a.class_ids.size
+    assert same_class / pixels >= 0.99, f"{same_class / pixels:.4f} of pixels keep their class"
+    assert same_trust / pixels >= 0.98, f"{same_trust / pixels:.4f} of pixels keep their trust"
+    assert float(np.median(np.concatenate(relative))) <= 0.01
 
 
 NEAR_OBJECT_MIN_PIXELS = 150  # of 300x300: an object an agent is about to handle, not a speck

@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 import torch
 
+from agent.perception.learned import read_classes
 from models.perception.augment import AugmentConfig, augment, augment_example, variable_appearance_classes
 from models.perception.dataset import IGNORE_LABEL, frame_names, load_frames, ontology_classes
 from models.perception.depth import DepthBins, depth_loss, expected_depth, interval_width_90
 from models.perception.evaluate import confusion_matrix, depth_metrics, segmentation_metrics
+from models.perception.network import inference_dtype
 from models.perception.unet import UNet, UNetConfig
 from symbolic.ontology import load_ontology
 
@@ -179,3 +181,32 @@ def test_relative_l1_term_is_zero_when_the_expectation_is_right():
         depth_loss(wrong, depth, bins, "two_hot", 0.0)
     )
     assert gap == pytest.approx(0.8, abs=1e-3)  # |0.05 - 0.25| / 0.25
+
+
+@pytest.mark.parametrize("dtype", [torch.float32, torch.bfloat16])
+def test_reading_classes_without_the_full_softmax_gives_the_softmax_answers(dtype: torch.dtype):
+    """The agent's shortcut (top logit, Σ exp, per-class comparisons) against softmax and argmax, with
+    exact ties among the logits, in either arithmetic the networks run in."""
+    generator = torch.Generator().manual_seed(0)
+    logits = (torch.randn(40, 24, 24, generator=generator) * 3).to(dtype)
+    logits[7, :4, :4] = logits[3, :4, :4] = logits[:, :4, :4].amax(dim=0) + 1  # a tie: lowest channel wins
+    reading = read_classes(logits, target_channel=5)
+    probs = logits.float().softmax(dim=0)
+    assert np.array_equal(reading.channel, logits.float().argmax(dim=0).numpy())
+    assert (reading.channel[:4, :4] == 3).all()
+    tolerance = 1e-5 if dtype == torch.float32 else 1e-2  # bfloat16 sums carry 8 bits of mantissa
+    assert reading.top_probability == pytest.approx(probs.amax(dim=0).numpy(), abs=tolerance)
+    assert reading.target_probability is not None
+    assert reading.target_probability == pytest.approx(probs[5].numpy(), abs=tolerance)
+    assert read_classes(logits, target_channel=None).target_probability is None
+
+
+def test_precision_names_resolve_to_dtypes_and_auto_follows_the_cpu():
+    native = torch.cpu.get_capabilities().get("avx512_bf16", False) or torch.cpu.get_capabilities().get(
+        "amx_bf16", False
+    )
+    assert inference_dtype("float32") == torch.float32
+    assert inference_dtype("bfloat16") == torch.bfloat16
+    assert inference_dtype("auto") == (torch.bfloat16 if native else torch.float32)
+    with pytest.raises(ValueError, match="precision"):
+        inference_dtype("float16")  # type: ignore[arg-type]
