@@ -14,7 +14,9 @@ neighbour, so its pixels name nothing.
 Both networks run at their own small input side (as shipped: 96 pixels for depth, 192 for segmentation;
 the frame is area-downscaled) and their outputs are resized back to the camera's size by nearest neighbour,
 to fit a step into the CPU budget (measured by ``bench/perception_speed.py`` with one torch thread:
-``JARVIS_TORCH_THREADS=1``). They were trained on 90° frames (TEACh's camera): depth
+``JARVIS_TORCH_THREADS=1``). For the same reason they compute in bfloat16 where the CPU has it natively
+(``LearnedConfig.precision``; float32 elsewhere): a third off the step, with the same mIoU and depth error
+to three decimals. They were trained on 90° frames (TEACh's camera): depth
 from a camera with another field of view is scaled wrongly, so sessions with ALFRED's 60° camera should
 prefer oracle perception or networks trained on their own frames (``models/perception/dataset.py``).
 """
