@@ -93,7 +93,7 @@ def predict(model: PerceptionNet, rgb: np.ndarray, dtype: torch.dtype = torch.fl
     """Per-frame predictions at the frames' side: expected depth (float32 metres) or class (uint8).
 
     ``rgb`` uint8 [N, H, W, 3]; each frame is area-resized to the network's side first; the network runs
-    in ``dtype`` (``PerceptionNet.infer``), as the agent runs it.
+    in ``dtype`` (``PerceptionNet.infer``; the agent's is ``inference_dtype(LearnedConfig.precision)``).
     """
     config = model.config
     N, H, W, _ = rgb.shape
