@@ -82,15 +82,16 @@ def main() -> None:
                 root, "valid_unseen", args.worlds, 10, CameraSpec(FRAME_SIDE, FRAME_SIDE, 90.0), SEED
             )
         frames = load_frames(root, FRAME_SIDE, use_cache=args.frames is not None)
-        depth_dirs = [config.networks.depth, *args.compare_depth]
-        depth = [_depth_entry(d, evaluate_model(load_checkpoint(d), frames, dtype)) for d in depth_dirs]
-        seg = evaluate_model(load_checkpoint(config.networks.segmentation), frames, dtype)
+        depth_model = load_checkpoint(config.networks.depth)
+        seg_model = load_checkpoint(config.networks.segmentation)
+        depth = [_depth_entry(config.networks.depth, evaluate_model(depth_model, frames, dtype))]
+        depth += [
+            _depth_entry(d, evaluate_model(load_checkpoint(d), frames, dtype)) for d in args.compare_depth
+        ]
+        seg = evaluate_model(seg_model, frames, dtype)
         float32 = None
         if dtype != torch.float32:  # what the arithmetic costs in quality, on the same frames
-            float32 = _headline(
-                evaluate_model(load_checkpoint(config.networks.depth), frames),
-                evaluate_model(load_checkpoint(config.networks.segmentation), frames),
-            )
+            float32 = _headline(evaluate_model(depth_model, frames), evaluate_model(seg_model, frames))
     result = {
         "frames": {
             "source": str(args.frames or "rendered valid_unseen"),

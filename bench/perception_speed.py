@@ -134,12 +134,13 @@ def main() -> None:
             "segmentation": models.segmentation.config.input_side,
         },
     }
-    results["dtype"] = str(inference_dtype(config.precision)).removeprefix("torch.")
+    dtype = inference_dtype(config.precision)
+    results["dtype"] = str(dtype).removeprefix("torch.")
     for side in SIDES:
         camera = Camera(side, side, TEACH_HFOV_DEG)
         perception = LearnedPerception(camera, config, models=models)
         results[f"{side}x{side}"] = time_perception(perception, frames(side, args.frames), args.repeats)
-    if inference_dtype(config.precision) != torch.float32:  # what the bfloat16 arithmetic saves
+    if dtype != torch.float32:  # what the bfloat16 arithmetic saves
         exact = LearnedPerception(
             Camera(300, 300, TEACH_HFOV_DEG), replace(config, precision="float32"), models=models
         )
