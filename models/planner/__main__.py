@@ -58,6 +58,7 @@ def _train(args: argparse.Namespace) -> int:
             ("eval_every", args.eval_every),
             ("num_threads", args.threads),
             ("seed", args.seed),
+            ("max_source_tokens", args.max_source_tokens),
         )
         if value is not None
     }
@@ -95,7 +96,13 @@ def _train(args: argparse.Namespace) -> int:
 def _evaluate(args: argparse.Namespace) -> int:
     import torch
 
-    from models.planner.evaluate import format_report_table, predict_in_batches, report_for, write_predictions
+    from models.planner.evaluate import (
+        format_miss_table,
+        format_report_table,
+        predict_in_batches,
+        report_for,
+        write_predictions,
+    )
     from models.planner.predict import SubgoalGenerator
 
     if args.handwritten is not None and not args.handwritten.is_file():
@@ -126,6 +133,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         if args.predictions is not None:
             write_predictions(args.predictions / f"{name}.jsonl", examples, predictions)
     print(format_report_table(reports))
+    print()
+    print(format_miss_table([report.as_json() for report in reports]))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         meta = read_planner_meta(args.checkpoint)
@@ -256,6 +265,9 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--eval-every", type=int)
     train.add_argument("--threads", type=int)
     train.add_argument("--seed", type=int)
+    train.add_argument(
+        "--max-source-tokens", type=int, help="input tokens kept (longer inputs keep their end); ≤ 512"
+    )
     train.add_argument("--d-model", type=int, help="bart-scratch width (ffn is 4x)")
     train.add_argument("--layers", type=int, help="bart-scratch layers per side")
     train.add_argument("--vocab-size", type=int, help="bart-scratch BPE vocabulary")

@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from models.planner.evaluate import format_miss_table
 from models.planner.modeling import PLANNER_META_FILE, read_planner_meta
 from models.planner.plan_vocab import PLAN_VOCAB_FILE
 
@@ -135,6 +136,7 @@ def render_model_card(
         "",
         *metrics_table(evaluation["sets"]),
         "",
+        *_miss_section(evaluation["sets"]),
         "### Per task type",
         "",
         *per_task_tables(evaluation["sets"]),
@@ -151,6 +153,22 @@ def render_model_card(
     if notes.strip():
         lines += [notes.strip(), ""]
     return "\n".join(lines)
+
+
+def _miss_section(sets: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Why plans missed, when the evaluation counted it (``evaluate.miss_kind``)."""
+    if not any("misses" in report for report in sets):
+        return []
+    return [
+        "### Why plans missed",
+        "",
+        "Each miss counted once, under the first reason that applies: only Navigate steps differ; only the "
+        "Open/Close of a container something is fetched from; the plan stops before the reference or runs "
+        "past it; the same actions on other objects; other or reordered actions.",
+        "",
+        format_miss_table(sets),
+        "",
+    ]
 
 
 def export_checkpoint(

@@ -7,15 +7,19 @@ instruction says, so language alone cannot know it (``drop_fetch_container_open_
 Navigate: the §5 rule writes one only where the expert happened to walk between two interactions, which
 the dialogue does not say, and the agent's repair puts a Navigate before every object out of reach anyway,
 so what the agent does depends on the interactions alone (``interactions_only``).
+
+Each miss is also given one reason (``miss_kind``), so a report says how much of the gap to a bar is where
+the expert walked, which container it found things in, where the reference stops, or what is acted on.
 """
 
 from __future__ import annotations
 
 import json
 from collections import Counter, defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any, Literal
 
 from tqdm import tqdm
 
@@ -83,6 +87,49 @@ def interactions_only(plan: Sequence[Subgoal]) -> list[Subgoal]:
     return [s for s in plan if s.action is not A.NAVIGATE]
 
 
+MissKind = Literal["navigate", "fetch_container", "stops_early", "runs_on", "other_objects", "other_steps"]
+MISS_KINDS: tuple[MissKind, ...] = (
+    "navigate",
+    "fetch_container",
+    "stops_early",
+    "runs_on",
+    "other_objects",
+    "other_steps",
+)
+"""Why a plan missed, first that applies: only Navigate steps differ; only the Open/Close of a container
+something is fetched from (and Navigate). The rest compare the interactions with those fetching Open/Close
+left out: the plan's are a beginning of the reference's, or the reference's a beginning of the plan's; the
+same actions in the same order on some other objects (Knife for ButterKnife, FloorLamp for DeskLamp);
+anything else (other or reordered actions)."""
+
+
+def miss_kind(predicted: Sequence[Subgoal], reference: Sequence[Subgoal]) -> MissKind | None:
+    """The first ``MISS_KINDS`` reason that explains why ``predicted`` is not ``reference``; None if equal."""
+    if list(predicted) == list(reference):
+        return None
+    if interactions_only(predicted) == interactions_only(reference):
+        return "navigate"
+    p = interactions_only(drop_fetch_container_open_close(predicted))
+    r = interactions_only(drop_fetch_container_open_close(reference))
+    if p == r:
+        return "fetch_container"
+    if len(p) < len(r) and r[: len(p)] == p:
+        return "stops_early"
+    if len(p) > len(r) and p[: len(r)] == r:
+        return "runs_on"
+    if [s.action for s in p] == [s.action for s in r]:
+        return "other_objects"
+    return "other_steps"
+
+
+def count_misses(
+    predicted: Sequence[Sequence[Subgoal]], reference: Sequence[Sequence[Subgoal]]
+) -> dict[str, int]:
+    """How many plans missed for each reason, every reason listed (zero included)."""
+    counts = Counter(miss_kind(p, r) for p, r in zip(predicted, reference, strict=True))
+    return {kind: counts[kind] for kind in MISS_KINDS}
+
+
 @dataclass(frozen=True)
 class Scores:
     """Metrics over a set of (predicted, reference) plans; P/R/F1 are micro-averaged over subgoals."""
@@ -136,11 +183,14 @@ class EvaluationReport:
     per_task_type: dict[str, Scores]
     mapped_items: int
     dropped_items: int
+    misses: dict[str, int]
+    """Plans that are not exact matches, by ``miss_kind``."""
 
     def as_json(self) -> dict[str, object]:
         return {
             "name": self.name,
             "overall": asdict(self.overall),
+            "misses": dict(self.misses),
             "per_task_type": {task: asdict(scores) for task, scores in sorted(self.per_task_type.items())},
             "mapped_items": self.mapped_items,
             "dropped_items": self.dropped_items,
@@ -170,6 +220,7 @@ def report_for(
         per_task_type=per_type,
         mapped_items=sum(note.kind == "mapped" for note in notes),
         dropped_items=sum(note.kind == "dropped" for note in notes),
+        misses=count_misses(predicted, references),
     )
 
 
@@ -226,4 +277,18 @@ def format_report_table(reports: Sequence[EvaluationReport]) -> str:
             f"{s.exact_match_interactions:.1%} | {s.precision:.3f} | {s.recall:.3f} | {s.f1:.3f} | "
             f"{s.mean_edit_distance:.2f} |"
         )
+    return "\n".join(lines)
+
+
+def format_miss_table(sets: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of each set's misses by reason (``MISS_KINDS``), from ``EvaluationReport.as_json``
+    records (what ``evaluate --out`` writes and the model card is made from)."""
+    lines = [
+        "| set | misses | " + " | ".join(kind.replace("_", " ") for kind in MISS_KINDS) + " |",
+        "|---|---|" + "---|" * len(MISS_KINDS),
+    ]
+    for report in sets:
+        misses = report.get("misses") or {}
+        cells = " | ".join(str(misses.get(kind, 0)) for kind in MISS_KINDS)
+        lines.append(f"| {report['name']} | {sum(misses.values())} | {cells} |")
     return "\n".join(lines)

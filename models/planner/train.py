@@ -270,6 +270,23 @@ def _check_resume(meta: dict[str, object], recipe: Recipe, fingerprint: str) -> 
         )
 
 
+def encoder_positions(planner: PlannerModel) -> int | None:
+    """How many input tokens the encoder's position table holds (None: no table, as T5)."""
+    config = planner.model.config
+    encoder = getattr(config, "encoder", None)
+    positions = getattr(encoder if encoder is not None else config, "max_position_embeddings", None)
+    return int(positions) if isinstance(positions, int) else None
+
+
+def _check_source_length(planner: PlannerModel, config: TrainConfig) -> None:
+    """Fail before the first step, not inside it, when inputs could outrun the position table."""
+    positions = encoder_positions(planner)
+    if positions is not None and config.max_source_tokens > positions:
+        raise ValueError(
+            f"max_source_tokens {config.max_source_tokens} exceeds the encoder's {positions} positions"
+        )
+
+
 def train(
     recipe: Recipe,
     dataset: DatasetFiles,
@@ -308,6 +325,7 @@ def train(
         planner = (
             load_planner_model(init_from) if init_from is not None else build_planner(recipe, train_examples)
         )
+    _check_source_length(planner, config)
     model = planner.model
     model.train()
     optimizer = make_optimizer(planner, recipe)

@@ -5,7 +5,15 @@ from __future__ import annotations
 import pytest
 
 from models.planner.data import PlannerExample
-from models.planner.evaluate import drop_fetch_container_open_close, edit_distance, report_for, score_plans
+from models.planner.evaluate import (
+    MISS_KINDS,
+    drop_fetch_container_open_close,
+    edit_distance,
+    format_miss_table,
+    miss_kind,
+    report_for,
+    score_plans,
+)
 from models.planner.predict import PlanPrediction
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import Subgoal, parse_subgoals
@@ -109,3 +117,43 @@ def test_navigate_ignored_match_compares_the_interactions_in_order() -> None:
     swapped = plan("Open Drawer, Close Drawer, Pickup Knife")
     scores = score_plans([stood, swapped], [walked, walked])
     assert (scores.exact_match, scores.exact_match_interactions) == (0.0, 0.5)
+
+
+KNIFE_PLAN = "Navigate Drawer, Open Drawer, Pickup Knife, Close Drawer, Navigate Bread, Slice Bread"
+
+
+@pytest.mark.parametrize(
+    ("predicted", "kind"),
+    [
+        (KNIFE_PLAN, None),
+        ("Open Drawer, Pickup Knife, Close Drawer, Navigate Bread, Slice Bread", "navigate"),
+        ("Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread", "fetch_container"),
+        ("Navigate Drawer, Open Drawer, Pickup Knife, Close Drawer", "stops_early"),
+        (KNIFE_PLAN + ", Place CounterTop", "runs_on"),
+        ("Navigate Drawer, Open Drawer, Pickup ButterKnife, Close Drawer, Slice Bread", "other_objects"),
+        ("Navigate ButterKnife, Pickup ButterKnife, Navigate Bread, Slice Bread", "other_objects"),
+        (
+            "Navigate Bread, Pickup Bread",
+            "other_steps",
+        ),
+    ],
+)
+def test_each_miss_gets_the_first_reason_that_explains_it(predicted: str, kind: str | None) -> None:
+    assert miss_kind(plan(predicted), plan(KNIFE_PLAN)) == kind
+
+
+def test_a_report_counts_its_misses_by_reason_and_the_table_shows_them() -> None:
+    ontology = load_ontology()
+    examples = [
+        PlannerExample(str(i), "<COM> slice the bread", KNIFE_PLAN, "Toast", "handwritten") for i in range(3)
+    ]
+    texts = [
+        KNIFE_PLAN,
+        "Open Drawer, Pickup Knife, Close Drawer, Navigate Bread, Slice Bread",
+        KNIFE_PLAN + ", Place CounterTop",
+    ]
+    predictions = [PlanPrediction(text, tuple(plan(text)), ()) for text in texts]
+    record = report_for("tiny", examples, predictions, ontology).as_json()
+    assert record["misses"] == {kind: int(kind in ("navigate", "runs_on")) for kind in MISS_KINDS}
+    table = format_miss_table([record])
+    assert table.splitlines()[2] == "| tiny | 2 | 1 | 0 | 0 | 1 | 0 | 0 |"

@@ -143,6 +143,38 @@ def test_a_second_schedule_starts_from_the_first_runs_weights(dataset: DatasetFi
     assert (tmp_path / "second" / "final" / "tokenizer.json").read_text() == first_vocab
 
 
+def test_a_second_schedule_may_read_longer_inputs_and_its_planner_then_reads_them(
+    dataset: DatasetFiles, tmp_path: Path
+) -> None:
+    first = tiny_recipe(2)
+    train(
+        replace(first, train=replace(first.train, max_source_tokens=8)),
+        dataset,
+        tmp_path / "first",
+        show_progress=False,
+    )
+    longer = tiny_recipe(2)
+    longer = replace(longer, train=replace(longer.train, max_source_tokens=24))
+    train(longer, dataset, tmp_path / "second", show_progress=False, init_from=tmp_path / "first" / "final")
+    ontology = load_ontology()
+    short = SubgoalGenerator.from_directory(tmp_path / "first" / "final", ontology)
+    long = SubgoalGenerator.from_directory(tmp_path / "second" / "final", ontology)
+    assert (short.max_source_tokens, long.max_source_tokens) == (8, 24)
+
+
+def test_inputs_longer_than_the_position_table_are_refused_before_training(
+    dataset: DatasetFiles, tmp_path: Path
+) -> None:
+    recipe = tiny_recipe(2)
+    positions = recipe.bart.max_positions
+    too_long = replace(recipe, train=replace(recipe.train, max_source_tokens=positions + 1))
+    with pytest.raises(
+        ValueError, match=f"max_source_tokens {positions + 1} exceeds the encoder's {positions}"
+    ):
+        train(too_long, dataset, tmp_path / "run", show_progress=False)
+    assert not (tmp_path / "run" / "last").exists()
+
+
 def test_the_batch_order_is_a_function_of_seed_and_epoch() -> None:
     lengths = list(range(50))
     first = epoch_batches(lengths, 4, seed=1, epoch=0)
