@@ -132,9 +132,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         reports.append(report_for(name, examples, predictions, ontology))
         if args.predictions is not None:
             write_predictions(args.predictions / f"{name}.jsonl", examples, predictions)
-    print(format_report_table(reports))
+    records = [report.as_json() for report in reports]
+    print(format_report_table(records))
     print()
-    print(format_miss_table([report.as_json() for report in reports]))
+    print(format_miss_table(records))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         meta = read_planner_meta(args.checkpoint)
@@ -145,7 +146,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             "num_beams": args.beams,
             "navigate_bias": generator.navigate_bias,
             "limit": args.limit,
-            "sets": [report.as_json() for report in reports],
+            "sets": records,
         }
         args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
         print(f"wrote {args.out}")

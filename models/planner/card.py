@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from models.planner.evaluate import format_miss_table
+from models.planner.evaluate import format_miss_table, format_report_table
 from models.planner.modeling import PLANNER_META_FILE, read_planner_meta
 from models.planner.plan_vocab import PLAN_VOCAB_FILE
 
@@ -35,23 +35,6 @@ MODEL_CARD_FILE = "MODEL_CARD.md"
 
 def _percent(value: object) -> str:
     return f"{float(str(value)):.1%}"
-
-
-def metrics_table(sets: Sequence[Mapping[str, Any]]) -> list[str]:
-    """Overall scores of each evaluation set as Markdown rows."""
-    rows = [
-        "| set | n | exact match | containers normalised | Navigate ignored | P | R | F1 | edit distance |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for report in sets:
-        s = report["overall"]
-        rows.append(
-            f"| {report['name']} | {s['count']} | {_percent(s['exact_match'])} | "
-            f"{_percent(s['exact_match_container_normalised'])} | "
-            f"{_percent(s['exact_match_interactions'])} | {s['precision']:.3f} | {s['recall']:.3f} | "
-            f"{s['f1']:.3f} | {s['mean_edit_distance']:.2f} |"
-        )
-    return rows
 
 
 def per_task_tables(sets: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -134,7 +117,7 @@ def render_model_card(
         "cannot know where the expert found it); the last ignores Navigate (written only where the expert "
         "walked; the agent's repair navigates to every object out of reach).",
         "",
-        *metrics_table(evaluation["sets"]),
+        format_report_table(evaluation["sets"]),
         "",
         *_miss_section(evaluation["sets"]),
         "### Per task type",
@@ -147,7 +130,7 @@ def render_model_card(
             "",
             f"{_compared_model(comparison)} on the same sets:",
             "",
-            *metrics_table(comparison["sets"]),
+            format_report_table(comparison["sets"]),
             "",
         ]
     if notes.strip():

@@ -264,18 +264,19 @@ def write_predictions(
             out.write(json.dumps(record, ensure_ascii=False) + "\n")
 
 
-def format_report_table(reports: Sequence[EvaluationReport]) -> str:
-    """A Markdown table of the overall scores, as quoted in the model card."""
+def format_report_table(sets: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of each set's overall scores, from ``EvaluationReport.as_json`` records (what
+    ``evaluate --out`` writes and the model card is made from)."""
     lines = [
         "| set | n | exact match | containers normalised | Navigate ignored | P | R | F1 | edit distance |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for report in reports:
-        s = report.overall
+    for report in sets:
+        s = report["overall"]
         lines.append(
-            f"| {report.name} | {s.count} | {s.exact_match:.1%} | {s.exact_match_container_normalised:.1%} | "
-            f"{s.exact_match_interactions:.1%} | {s.precision:.3f} | {s.recall:.3f} | {s.f1:.3f} | "
-            f"{s.mean_edit_distance:.2f} |"
+            f"| {report['name']} | {s['count']} | {s['exact_match']:.1%} | "
+            f"{s['exact_match_container_normalised']:.1%} | {s['exact_match_interactions']:.1%} | "
+            f"{s['precision']:.3f} | {s['recall']:.3f} | {s['f1']:.3f} | {s['mean_edit_distance']:.2f} |"
         )
     return "\n".join(lines)
 

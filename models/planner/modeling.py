@@ -48,6 +48,14 @@ class PlannerModel:
     """The decoder's whole-word plan vocabulary, when it has one (else it writes tokenizer pieces)."""
 
 
+def encoder_positions(model: PreTrainedModel) -> int | None:
+    """How many input tokens the encoder's position table holds (None: no table, as T5). An
+    EncoderDecoderModel keeps it in its encoder's config, BART at the top of its own."""
+    encoder = getattr(model.config, "encoder", None)
+    positions = getattr(encoder if encoder is not None else model.config, "max_position_embeddings", None)
+    return int(positions) if isinstance(positions, int) else None
+
+
 def _token_id(tokenizer: PreTrainedTokenizerBase, *names: str) -> int:
     for name in names:
         value = getattr(tokenizer, f"{name}_token_id", None)

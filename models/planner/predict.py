@@ -19,7 +19,7 @@ from typing import Literal
 import torch
 
 from models.planner.config import GenerationConfig
-from models.planner.modeling import PlannerModel, load_planner_model, read_planner_meta
+from models.planner.modeling import PlannerModel, encoder_positions, load_planner_model, read_planner_meta
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import Subgoal, SubgoalAction, SubgoalSyntaxError, parse_subgoals
 
@@ -91,7 +91,7 @@ def source_token_limit(planner: PlannerModel) -> int:
     train_config = meta.get("train_config")
     if isinstance(train_config, dict) and isinstance(train_config.get("max_source_tokens"), int):
         return int(train_config["max_source_tokens"])
-    return int(planner.model.config.to_dict().get("max_position_embeddings") or DEFAULT_SOURCE_TOKENS)
+    return encoder_positions(planner.model) or DEFAULT_SOURCE_TOKENS
 
 
 def target_token_limit(planner: PlannerModel) -> int:

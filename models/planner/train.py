@@ -29,6 +29,7 @@ from models.planner.modeling import (
     build_bart_scratch,
     build_minilm_encdec,
     count_parameters,
+    encoder_positions,
     freeze_pretrained_word_embeddings,
     load_planner_model,
     no_decay_parameters,
@@ -270,17 +271,9 @@ def _check_resume(meta: dict[str, object], recipe: Recipe, fingerprint: str) -> 
         )
 
 
-def encoder_positions(planner: PlannerModel) -> int | None:
-    """How many input tokens the encoder's position table holds (None: no table, as T5)."""
-    config = planner.model.config
-    encoder = getattr(config, "encoder", None)
-    positions = getattr(encoder if encoder is not None else config, "max_position_embeddings", None)
-    return int(positions) if isinstance(positions, int) else None
-
-
 def _check_source_length(planner: PlannerModel, config: TrainConfig) -> None:
     """Fail before the first step, not inside it, when inputs could outrun the position table."""
-    positions = encoder_positions(planner)
+    positions = encoder_positions(planner.model)
     if positions is not None and config.max_source_tokens > positions:
         raise ValueError(
             f"max_source_tokens {config.max_source_tokens} exceeds the encoder's {positions} positions"
