@@ -11,7 +11,11 @@ next thing where they stand (``stays_put``):
 - the faucet over the sink something was just put in, and taking the washed thing out again;
 - putting the knife down right after slicing, and picking up a slice of what was just cut.
 
-Geometry can still overrule the rule (a faucet out of reach of where the pot went in); those are rare.
+Staying means acting from the pose the agent stands in whenever the object shows within reach from it
+(``expert._Episode._view_from_here``), taking whichever slice of the cut shows there
+(``_piece_at_hand``); a container is opened or filled from where its inside is within reach. Geometry can
+still overrule the rule (a plate set deep in a microwave, a mug below the rim of the sink): on 119
+generated valid_unseen games that left 10 walks of 631 stays, where there had been 37.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from harness.camera import CameraSpec
 from harness.catalog import load_catalog
@@ -26,6 +26,7 @@ from harness.expert.navigation import (
     Reach,
     SightOracle,
     View,
+    clicks_from,
     find_view,
     look_actions,
     reduced_spec,
@@ -46,6 +47,7 @@ from symbolic.thor import (
     ALFRED_HFOV_DEG,
     ALFRED_IMAGE_SIDE,
     ALFRED_LOOK_STEP_DEG,
+    INTERACTION_DISTANCE_M,
     MAX_FAILED_ACTIONS,
     MAX_STEPS,
     MOTION_ACTIONS,
@@ -199,11 +201,13 @@ class _Episode:
         exclude: set[tuple[BodyState, float]],
         companion: tuple[str, World] | None = None,
         quick: bool = False,
+        reach_inside: bool = False,
     ) -> View | None:
         """The cheapest verified view within the search budget; failing that, every candidate pose is tried
         (as the planner's look-ahead does before it calls an object seen), so an object that only shows
         from a few far poses is not given up on. ``quick`` (a preference the caller can drop: another
-        pose than this one, or one that serves the next interaction too) spends only the quick budget."""
+        pose than this one, or one that serves the next interaction too) spends only the quick budget.
+        ``reach_inside``: only poses with the object's centre within reach (``find_view``)."""
         budgets = (
             (self.config.max_view_renders,)
             if quick
@@ -222,6 +226,7 @@ class _Episode:
                 max_renders=budget,
                 exclude=frozenset(exclude),
                 companion=companion,
+                reach_inside=reach_inside,
             )
             if view is not None:
                 return view
@@ -263,12 +268,20 @@ class _Episode:
             if target not in self.sim.world.objects:
                 return _Stuck(f"plan: {subgoal.object_type} {target} no longer exists")
             view = None
+            top_y = self._top_y(subgoal)
             exclude = tried | {self.here()} if walk and attempt == 0 else tried
+            inside = walk and attempt == 0 and self._reaches_inside(subgoal)
+            if not walk and attempt == 0:
+                view = self._view_from_here(subgoal, top_y)
             if companion is not None and attempt == 0:
-                view = self.find(target, self._top_y(subgoal), exclude, companion, quick=True)
+                if inside:
+                    view = self.find(target, top_y, exclude, companion, quick=True, reach_inside=True)
+                view = view or self.find(target, top_y, exclude, companion, quick=True)
             if walk and attempt == 0:
-                view = view or self.find(target, self._top_y(subgoal), exclude, quick=True)
-            view = view or self.find(target, self._top_y(subgoal), tried)
+                if inside:
+                    view = view or self.find(target, top_y, exclude, quick=True, reach_inside=True)
+                view = view or self.find(target, top_y, exclude, quick=True)
+            view = view or self.find(target, top_y, tried)
             if view is None:
                 return _Stuck(why, avoid=target)
             tried.add((view.state, view.horizon))
@@ -302,6 +315,52 @@ class _Episode:
             world.objects[subgoal.object_id].is_open = True
         return following.object_id, world
 
+    def _view_from_here(self, subgoal: ExpertSubgoal, top_y: float | None) -> View | None:
+        """The pose the agent stands in, when the object shows within reach from it. Staying put means
+        acting from here: the cheapest candidate pose can be another one (candidates favour facing the
+        object squarely), and a step or turn for it would write a Navigate into the reference."""
+        state, horizon = self.here()
+        reach = INTERACTION_DISTANCE_M - self.config.reach_margin_m
+        clicks = clicks_from(
+            self.sim.world, subgoal.object_id, state, horizon, self.renderer, self.config.camera, reach, top_y
+        )
+        return View(state, horizon, clicks, 0.0) if clicks else None
+
+    def _reaches_inside(self, subgoal: ExpertSubgoal) -> bool:
+        """Whether this interaction opens or fills a fridge, microwave, cabinet or drawer: then a pose with
+        its inside within reach is preferred, so what goes in or comes out next is taken from the same spot
+        (a microwave opened from the edge of reach leaves the plate put in it out of reach)."""
+        return subgoal.action in (SubgoalAction.OPEN, SubgoalAction.PLACE) and (
+            subgoal.object_type in self.ontology.enclosing
+        )
+
+    def _piece_at_hand(self, plan: list[ExpertSubgoal], index: int) -> ExpertSubgoal:
+        """The slice to pick up where the cutting was done: the planned piece if it shows from here, else
+        another piece of the same cut that does (swapped with it in the rest of the plan). A person takes
+        the slice in front of them; walking round for the one the plan happened to number would write a
+        Navigate into the reference that no dialogue explains."""
+        subgoal = plan[index]
+        if subgoal.action is not SubgoalAction.PICKUP or self.ontology.get(subgoal.object_type).sliced_from is None:
+            return subgoal
+        world = self.sim.world
+        state, horizon = self.here()
+        reach = INTERACTION_DISTANCE_M - self.config.reach_margin_m
+
+        def shows(object_id: str) -> bool:
+            return bool(clicks_from(world, object_id, state, horizon, self.renderer, self.config.camera, reach))
+
+        if shows(subgoal.object_id):
+            return subgoal
+        whole = subgoal.object_id.rsplit("|", 1)[0]
+        handled = {s.object_id for s in self.done}
+        for object_id, obj in world.objects.items():
+            sibling = object_id.rsplit("|", 1)[0] == whole and obj.object_type == subgoal.object_type
+            if sibling and object_id != subgoal.object_id and object_id not in handled and shows(object_id):
+                swap = {subgoal.object_id: object_id, object_id: subgoal.object_id}
+                plan[index:] = [replace(s, object_id=swap.get(s.object_id, s.object_id)) for s in plan[index:]]
+                return plan[index]
+        return subgoal
+
     def approach(self, subgoal: ExpertSubgoal) -> _Stuck | None:
         """Go where the object is in view and within reach, to do nothing there (ALFRED's look-at goal)."""
         view = self.find(subgoal.object_id, None, set())
@@ -317,6 +376,8 @@ class _Episode:
                 stuck = self.approach(subgoal)
             else:
                 walk = not stays_put(self.done, subgoal, self.sim.world, self.ontology)
+                if not walk:
+                    subgoal = self._piece_at_hand(plan, index)
                 companion = self._companion(subgoal, plan[index + 1 :]) if walk else None
                 stuck = self.interact(subgoal, walk, companion)
                 if stuck is None:

@@ -392,12 +392,14 @@ def find_view(
     exclude: frozenset[tuple[BodyState, float]] = frozenset(),
     ignore_motion: bool = False,
     companion: tuple[str, World] | None = None,
+    reach_inside: bool = False,
 ) -> View | None:
     """The cheapest pose from which ``target_id`` shows a clickable pixel within reach, or None.
 
     ``companion``: (object id, world) of the next interaction when it is to be done from the same pose
     (``approach.stays_put``): the pose must also show that object within reach in that world (the state
-    after this interaction, e.g. with the drawer open)."""
+    after this interaction, e.g. with the drawer open). ``reach_inside``: the pose must also have the
+    target's centre within reach, not just its front (what is put in or taken out of it sits inside)."""
     target = world.objects[target_id]
     instance_id = world.instance_ids[target_id]
     low = renderer.spec
@@ -414,6 +416,9 @@ def find_view(
         ignore_motion,
     )
     tried = [c for c in candidates if (c.state, c.horizon) not in exclude]
+    if reach_inside:
+        centre_x, _, centre_z = target.center
+        tried = [c for c in tried if _distance_to(world, c.state, centre_x, centre_z) <= max_distance]
     for cand in _budgeted(tried, max_renders):
         view_world = posed(world, cand.state, cand.horizon)
         frame = renderer.render(view_world, want_rgb=False)
@@ -425,6 +430,12 @@ def find_view(
     return None
 
 
+def _distance_to(world: World, state: BodyState, x: float, z: float) -> float:
+    """Horizontal metres from a pose's cell centre to a point."""
+    cx, cz = world.room.cell_center(state.ix, state.iz)
+    return math.hypot(x - cx, z - cz)
+
+
 def _also_shows(
     companion: tuple[str, World],
     cand: PoseCandidate,
@@ -434,12 +445,26 @@ def _also_shows(
 ) -> bool:
     """Whether the companion object shows a clickable pixel within reach from the candidate pose."""
     object_id, world = companion
+    return bool(clicks_from(world, object_id, cand.state, cand.horizon, renderer, full, max_distance))
+
+
+def clicks_from(
+    world: World,
+    object_id: str,
+    state: BodyState,
+    horizon: float,
+    renderer: Renderer,
+    full: CameraSpec,
+    max_distance: float,
+    top_y: float | None = None,
+) -> tuple[tuple[float, float], ...]:
+    """Click points on the object within reach from one pose; empty when it does not show there."""
     if object_id not in world.instance_ids:
-        return False
-    view_world = posed(world, cand.state, cand.horizon)
+        return ()
+    view_world = posed(world, state, horizon)
     frame = renderer.render(view_world, want_rgb=False)
     pose = CameraPose.of_agent(view_world.agent)
-    return bool(choose_clicks(frame, renderer.spec, pose, world.instance_ids[object_id], full, max_distance))
+    return choose_clicks(frame, renderer.spec, pose, world.instance_ids[object_id], full, max_distance, top_y)
 
 
 def _budgeted(candidates: list[PoseCandidate], budget: int) -> list[PoseCandidate]:
