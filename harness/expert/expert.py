@@ -340,14 +340,19 @@ class _Episode:
         the slice in front of them; walking round for the one the plan happened to number would write a
         Navigate into the reference that no dialogue explains."""
         subgoal = plan[index]
-        if subgoal.action is not SubgoalAction.PICKUP or self.ontology.get(subgoal.object_type).sliced_from is None:
+        if (
+            subgoal.action is not SubgoalAction.PICKUP
+            or self.ontology.get(subgoal.object_type).sliced_from is None
+        ):
             return subgoal
         world = self.sim.world
         state, horizon = self.here()
         reach = INTERACTION_DISTANCE_M - self.config.reach_margin_m
 
         def shows(object_id: str) -> bool:
-            return bool(clicks_from(world, object_id, state, horizon, self.renderer, self.config.camera, reach))
+            return bool(
+                clicks_from(world, object_id, state, horizon, self.renderer, self.config.camera, reach)
+            )
 
         if shows(subgoal.object_id):
             return subgoal
@@ -357,7 +362,9 @@ class _Episode:
             sibling = object_id.rsplit("|", 1)[0] == whole and obj.object_type == subgoal.object_type
             if sibling and object_id != subgoal.object_id and object_id not in handled and shows(object_id):
                 swap = {subgoal.object_id: object_id, object_id: subgoal.object_id}
-                plan[index:] = [replace(s, object_id=swap.get(s.object_id, s.object_id)) for s in plan[index:]]
+                plan[index:] = [
+                    replace(s, object_id=swap.get(s.object_id, s.object_id)) for s in plan[index:]
+                ]
                 return plan[index]
         return subgoal
 

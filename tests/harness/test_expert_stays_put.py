@@ -37,7 +37,11 @@ def needless_walks(subgoals: tuple[Subgoal, ...], object_ids: tuple[str, ...]) -
             if previous.action is A.OPEN and after is not None and after[0].action is A.CLOSE:
                 if after[1] == previous_id:
                     walks.append(f"{subgoal} out of the {previous.obj} just opened")
-            elif cut is not None and previous.action in (A.SLICE, A.PLACE) and subgoal.obj == f"{cut.obj}Sliced":
+            elif (
+                cut is not None
+                and previous.action in (A.SLICE, A.PLACE)
+                and subgoal.obj == f"{cut.obj}Sliced"
+            ):
                 walks.append(f"{subgoal} after cutting the {cut.obj}")
             elif previous.action is A.TOGGLE_OFF and previous.obj == "Faucet":
                 walks.append(f"{subgoal} out of the sink after the tap")
@@ -55,16 +59,15 @@ def test_reference_subgoals_walk_only_where_a_person_would(index: int) -> None:
 
 def test_needless_walks_names_each_kind() -> None:
     """The checker itself, on hand-written references: each kind found, and a walk the rule allows kept."""
-    plan = [
-        (A.NAVIGATE, "Fridge", "F"), (A.OPEN, "Fridge", "F"), (A.NAVIGATE, "Potato", "P"),
-        (A.PICKUP, "Potato", "P"), (A.CLOSE, "Fridge", "F"),
-        (A.NAVIGATE, "Knife", "K"), (A.PICKUP, "Knife", "K"), (A.NAVIGATE, "Bread", "B"), (A.SLICE, "Bread", "B"),
-        (A.PLACE, "CounterTop", "C"), (A.NAVIGATE, "BreadSliced", "S"), (A.PICKUP, "BreadSliced", "S"),
-        (A.NAVIGATE, "SinkBasin", "W"), (A.PLACE, "SinkBasin", "W"), (A.TOGGLE_ON, "Faucet", "T"),
-        (A.TOGGLE_OFF, "Faucet", "T"), (A.NAVIGATE, "BreadSliced", "S"), (A.PICKUP, "BreadSliced", "S"),
-    ]
-    subgoals = tuple(Subgoal(action, obj) for action, obj, _ in plan)
-    ids = tuple(object_id for *_, object_id in plan)
+    plan = (
+        "Navigate Fridge F, Open Fridge F, Navigate Potato P, Pickup Potato P, Close Fridge F, "
+        "Navigate Knife K, Pickup Knife K, Navigate Bread B, Slice Bread B, Place CounterTop C, "
+        "Navigate BreadSliced S, Pickup BreadSliced S, Navigate SinkBasin W, Place SinkBasin W, "
+        "ToggleOn Faucet T, ToggleOff Faucet T, Navigate BreadSliced S, Pickup BreadSliced S"
+    )
+    steps = [item.split() for item in plan.split(", ")]
+    subgoals = tuple(Subgoal(SubgoalAction(action), obj) for action, obj, _ in steps)
+    ids = tuple(object_id for *_, object_id in steps)
     assert needless_walks(subgoals, ids) == [
         "Pickup Potato out of the Fridge just opened",
         "Pickup BreadSliced after cutting the Bread",
