@@ -319,12 +319,16 @@ class _Episode:
         """The pose the agent stands in, when the object shows within reach from it. Staying put means
         acting from here: the cheapest candidate pose can be another one (candidates favour facing the
         object squarely), and a step or turn for it would write a Navigate into the reference."""
+        clicks = self._clicks_here(subgoal.object_id, top_y)
+        return View(*self.here(), clicks, 0.0) if clicks else None
+
+    def _clicks_here(self, object_id: str, top_y: float | None = None) -> tuple[tuple[float, float], ...]:
+        """Click points on the object within reach from the pose the agent stands in."""
         state, horizon = self.here()
         reach = INTERACTION_DISTANCE_M - self.config.reach_margin_m
-        clicks = clicks_from(
-            self.sim.world, subgoal.object_id, state, horizon, self.renderer, self.config.camera, reach, top_y
+        return clicks_from(
+            self.sim.world, object_id, state, horizon, self.renderer, self.config.camera, reach, top_y
         )
-        return View(state, horizon, clicks, 0.0) if clicks else None
 
     def _reaches_inside(self, subgoal: ExpertSubgoal) -> bool:
         """Whether this interaction opens or fills a fridge, microwave, cabinet or drawer: then a pose with
@@ -345,22 +349,19 @@ class _Episode:
             or self.ontology.get(subgoal.object_type).sliced_from is None
         ):
             return subgoal
-        world = self.sim.world
-        state, horizon = self.here()
-        reach = INTERACTION_DISTANCE_M - self.config.reach_margin_m
-
-        def shows(object_id: str) -> bool:
-            return bool(
-                clicks_from(world, object_id, state, horizon, self.renderer, self.config.camera, reach)
-            )
-
-        if shows(subgoal.object_id):
+        if self._clicks_here(subgoal.object_id):
             return subgoal
+        world = self.sim.world
         whole = subgoal.object_id.rsplit("|", 1)[0]
         handled = {s.object_id for s in self.done}
         for object_id, obj in world.objects.items():
             sibling = object_id.rsplit("|", 1)[0] == whole and obj.object_type == subgoal.object_type
-            if sibling and object_id != subgoal.object_id and object_id not in handled and shows(object_id):
+            if (
+                sibling
+                and object_id != subgoal.object_id
+                and object_id not in handled
+                and self._clicks_here(object_id)
+            ):
                 swap = {subgoal.object_id: object_id, object_id: subgoal.object_id}
                 plan[index:] = [
                     replace(s, object_id=swap.get(s.object_id, s.object_id)) for s in plan[index:]
