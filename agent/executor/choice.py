@@ -118,13 +118,19 @@ class InstanceChoice(StepContext):
         while it was not looked into yet: until then only an X inside it is the X meant."""
         if attempt.hint_checked:
             return None
+        kind = self._opened_for(obj)
+        return self.state.memory.opened_box.get(kind) if kind is not None else None
+
+    def _opened_for(self, obj: str) -> str | None:
+        """The container the plan's last interaction opened, when it may hold ``obj`` (the words said
+        where X is: "Open Drawer, Navigate Knife")."""
         for index in range(self.pointer - 1, -1, -1):
             earlier = self.plan[index]
             if earlier.action is A.NAVIGATE:
                 continue
             kind = earlier.obj
             if earlier.action is A.OPEN and kind in self.onto.enclosing and self.onto.may_hold(kind, obj):
-                return self.state.memory.opened_box.get(kind)
+                return kind
             return None
         return None
 

@@ -36,6 +36,7 @@ from agent.executor.config import ExecutorConfig
 from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.room import MakeRoom
+from agent.executor.standin import SlicingStandIn
 from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
@@ -112,7 +113,7 @@ class Executor:
         return run.decide()
 
 
-class _Run(MakeRoom, HintFollowing, MotionSafety):
+class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
     """One call of ``Executor.decide`` (module docstring): the step itself, on top of the mixins."""
 
     def decide(self) -> Decision:
@@ -125,6 +126,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             if self.pointer >= len(self.plan) and not self._retry_given_up():
                 return self._stop("plan done: every subgoal was executed", plan_done=True)
             subgoal = self.plan[self.pointer]
+            if self._stand_in(subgoal):
+                subgoal = self.plan[self.pointer]
             attempt = self._attempt_for(subgoal)
             outcome = self._pursue(subgoal, attempt)
             if isinstance(outcome, Act):
@@ -257,8 +260,9 @@ class _Run(MakeRoom, HintFollowing, MotionSafety):
             point, instance_id = (click.point, click.instance_id) if click is not None else (None, None)
             if click is not None and self._more_switches(subgoal, attempt, click, changed=True):
                 return
-            if pending.action == "Open" and pending.box is not None:
-                self.state.memory.opened_box[subgoal.obj] = pending.box
+            opened_box = self._opened_box(subgoal.obj, pending) if pending.action == "Open" else None
+            if opened_box is not None:
+                self.state.memory.opened_box[subgoal.obj] = opened_box
             if pending.action == "Open":
                 self._learn_front(subgoal.obj, pending)
             self._complete(subgoal, f"Success({pending.action} {subgoal.obj})", point, instance_id)

@@ -24,7 +24,7 @@ from agent.executor.mapview import MapCluster, SessionMapView
 from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState, in_box
 from agent.executor.step import Act, GiveUp, Outcome
 from agent.exploration_gt import GoalTransformerExplorer
-from agent.navigation.base import NavGoal, Navigator
+from agent.navigation.base import GRID_STEP_M, NavGoal, Navigator, widened
 from agent.navigation.exploration import ExploreDecision, FrontierExplorer
 from symbolic.ontology import Ontology
 from symbolic.subgoals import SubgoalAction
@@ -69,6 +69,11 @@ a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight m
 FRONT_CONE_DEG = 35.0
 """Degrees either side of a container's facing within which it is opened and looked into: from the side,
 its own walls and its swung door hide the inside."""
+
+LATTICE_HALF_DIAGONAL_M = GRID_STEP_M * math.sqrt(2.0) / 2.0
+"""Metres: a viewpoint goal grown by this holds a lattice node, however few map cells it had (a patch of
+known floor 0.15 m wide may hold none, and the navigator then finds it unreachable). Grown only then: a
+goal the agent can reach keeps its cells, and the search its course."""
 
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
@@ -268,6 +273,16 @@ def explore_step(
     return decision
 
 
+def _joined(*given: Box | None) -> Box | None:
+    """The smallest box holding all the boxes given (None ones left out); None when there are none."""
+    boxes = [box for box in given if box is not None]
+    if not boxes:
+        return None
+    low = [min(box[0][k] for box in boxes) for k in range(3)]
+    high = [max(box[1][k] for box in boxes) for k in range(3)]
+    return (low[0], low[1], low[2]), (high[0], high[1], high[2])
+
+
 class ContainerSearch(Approach):
     """¬FindInMap(X): look around and explore, then open the containers that may hold it (module
     docstring); the search's own Open and Close are judged here too."""
@@ -417,6 +432,8 @@ class ContainerSearch(Approach):
         if visit.stage == "look":
             return self._look_at_surface(obj, attempt, visit)
         if visit.stage == "inspect":
+            if visit.hinted:
+                self._grow_opened_box(kind, visit.instance_id)
             if self._found(obj, attempt):
                 search.visit = None  # found: the approach takes over (the container stays open)
                 if visit.opened_at is not None:
@@ -629,7 +646,11 @@ class ContainerSearch(Approach):
             return None
         centre = (body or part).x, (body or part).aim_m, (body or part).z
         face = self.view.spot_cluster(centre, 0.1)
-        nav = self.navigator.next_action(self.view.grids(), frame, self.pose, NavGoal(goal, face=face.cells))
+        grids = self.view.grids()
+        nav = self.navigator.next_action(grids, frame, self.pose, NavGoal(goal, face=face.cells))
+        if nav.reason == "unreachable":  # a few known cells may hold no lattice node: widen them to one
+            goal = widened(goal, frame.cell_m, LATTICE_HALF_DIAGONAL_M)
+            nav = self.navigator.next_action(grids, frame, self.pose, NavGoal(goal, face=face.cells))
         if nav.action is not None:
             return Act(nav.action, f"search({obj}): look into the {kind} from elsewhere", path=nav.path)
         if nav.reason != "arrived":
@@ -681,6 +702,31 @@ class ContainerSearch(Approach):
         fronts.append((x0, z0, side))
         self.events.append(f"the {kind} at ({x0:.2f}, {z0:.2f}) opens toward {side:g}°")
 
+    def _opened_box(self, kind: str, pending: Pending) -> Box | None:
+        """After an Open: the box seen when clicking (``_container_box``) joined with the opened instance's
+        pixels now (with fresh ids, the instance under the click, if it is one)."""
+        click = pending.click
+        if click is None:
+            return pending.box
+        percept = self.view.percept
+        instance_id = click.instance_id
+        if not percept.persistent_ids:
+            instance_id = int(percept.instances[click.row, click.col])
+            if percept.instance_types.get(instance_id) != kind:
+                return pending.box
+        return _joined(pending.box, self._extent_of(instance_id))
+
+    def _grow_opened_box(self, kind: str, instance_id: int | None) -> None:
+        """While looking into the container the plan opened: join its pixels in this frame to its box. A
+        drawer clicked at the bottom edge of the view showed a sliver and, open, shows its far end at a level
+        camera; looking down shows the rest, and what lies there is inside it."""
+        box = self.state.memory.opened_box.get(kind)
+        if box is None or instance_id is None or not self.view.percept.persistent_ids:
+            return
+        grown = _joined(box, self._extent_of(instance_id))
+        if grown is not None:
+            self.state.memory.opened_box[kind] = grown
+
     def _container_box(self, kind: str, click: Click) -> Box | None:
         """The extent of a container about to be opened: its pixels in this frame, joined with its mapped
         cells near the click (a fridge at the edge of the view shows only a sliver)."""
@@ -693,10 +739,10 @@ class ContainerSearch(Approach):
         if part is not None:
             lo = (float(part.xs.min()), 0.0, float(part.zs.min()))
             boxes.append((lo, (float(part.xs.max()), part.top_m, float(part.zs.max()))))
-        if not boxes:
+        joined = _joined(*boxes)
+        if joined is None:
             return None
-        low = [min(b[0][k] for b in boxes) for k in range(3)]
-        high = [max(b[1][k] for b in boxes) for k in range(3)]
+        low, high = list(joined[0]), list(joined[1])
         for k, here in ((0, self.pose.x), (2, self.pose.z)):  # the inside lies behind the face seen
             if here < low[k]:
                 high[k] = max(high[k], low[k] + CONTAINER_DEPTH_M)
@@ -748,8 +794,9 @@ class ContainerSearch(Approach):
                 search.containers_opened += 1
                 self._mark_opened(visit, attempt.subgoal.obj)
                 self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
-                if pending.box is not None:
-                    self.state.memory.opened_box[visit.object_type] = pending.box
+                opened_box = self._opened_box(visit.object_type, pending)
+                if opened_box is not None:
+                    self.state.memory.opened_box[visit.object_type] = opened_box
                 self._learn_front(visit.object_type, pending)
                 self.state.memory.instance[visit.object_type] = pending.click.instance_id
                 self.events.append(f"search: opened {visit.object_type}")

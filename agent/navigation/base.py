@@ -166,6 +166,15 @@ def body_fits(blocked: np.ndarray, cell_m: float, radius_m: float) -> np.ndarray
     return grown == 0
 
 
+def widened(cells: np.ndarray, cell_m: float, radius_m: float) -> np.ndarray:
+    """bool [X, Z]: ``cells`` grown by a disk of ``radius_m``. A goal smaller than the 0.25 m lattice may
+    hold no node the agent can stand on; grown by half the lattice diagonal it always holds one."""
+    if radius_m < 0.0:
+        raise ValueError(f"radius_m must be non-negative, got {radius_m}")
+    kernel = _disk_kernel((radius_m + cell_m / 2.0) / cell_m)
+    return np.asarray(cv2.dilate(np.ascontiguousarray(cells).view(np.uint8), kernel) > 0)
+
+
 def without_body(grid: np.ndarray, cell: Cell, cell_m: float, radius_m: float) -> np.ndarray:
     """A copy of ``grid`` with the cells under the agent's body cleared: nothing can stand where the agent
     stands, so marks there are map noise (depth error, a collision strip reaching back into the body).

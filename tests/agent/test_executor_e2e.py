@@ -7,7 +7,7 @@ import math
 from collections.abc import Iterator
 
 import pytest
-from executor_support import CAMERA, KITCHEN_SEED, drive, kitchen
+from executor_support import CAMERA, ENCLOSING, KITCHEN_SEED, drive, kitchen
 from fastapi.testclient import TestClient
 
 from app.main import create_app
@@ -56,7 +56,64 @@ def test_slice_plan_fetches_the_knife_and_slices_the_bread(client: TestClient) -
     assert bread.object_id not in run.sim.world.objects  # AI2-THOR replaces a sliced object by its pieces
     assert run.sim.world.of_type("BreadSliced")
     held = run.sim.world.held_object()
-    assert held is not None and held.object_type == "Knife"
+    assert held is not None and held.object_type in ("Knife", "ButterKnife")
+    if held.object_type == "ButterKnife":  # in view before any Knife: any slicing tool slices
+        assert any(event["rule"] == "stand-in" for event in run.last["plan"]["repair_log"])
+
+
+def _kitchen_without_a_knife() -> World:
+    """A generated kitchen whose Bread and ButterKnife lie in the open, with its Knife taken away."""
+    world = generate_kitchen(BUTTER_KNIFE_SEED, require=(("Bread", 1), ("ButterKnife", 1)))
+    for knife in world.of_type("Knife"):
+        world.remove(knife.object_id)
+    return world
+
+
+def _in_the_open(world: World, *types: str) -> bool:
+    things = [o for t in types for o in world.of_type(t)]
+    return bool(things) and not any(
+        world.objects[p].object_type in ENCLOSING for o in things for p in world.parent_chain(o.object_id)
+    )
+
+
+BUTTER_KNIFE_SEED = next(
+    s
+    for s in range(100)
+    if _in_the_open(generate_kitchen(s, require=(("Bread", 1), ("ButterKnife", 1))), "Bread", "ButterKnife")
+)
+
+
+def test_a_planned_knife_the_kitchen_lacks_gives_way_to_the_butter_knife_to_slice(client: TestClient) -> None:
+    """ "Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread" where only a ButterKnife lies about:
+    any slicing tool slices, so the agent takes it (repair ``stand-in``) instead of searching the kitchen
+    for the kind the words happened to name."""
+    world = _kitchen_without_a_knife()
+
+    run = drive(client, world, "Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread", max_steps=150)
+
+    assert run.last["done"], run.last
+    assert run.sim.world.of_type("BreadSliced")
+    held = run.sim.world.held_object()
+    assert held is not None and held.object_type == "ButterKnife"
+    rules = [event["rule"] for event in run.last["plan"]["repair_log"]]
+    assert "stand-in" in rules, rules
+    fetched = [s["text"] for s in run.last["plan"]["subgoals"]][:2]
+    assert fetched == ["Navigate ButterKnife", "Pickup ButterKnife"], fetched
+
+
+def test_a_knife_fetched_to_be_put_away_is_never_swapped_for_a_butter_knife(client: TestClient) -> None:
+    """The stand-in is for slicing only: "Pickup Knife, Place CounterTop" with only a ButterKnife in the
+    kitchen leaves the ButterKnife where it is and keeps looking for a Knife."""
+    world = _kitchen_without_a_knife()
+    (butter_knife,) = world.of_type("ButterKnife")
+
+    plan = "Navigate Knife, Pickup Knife, Navigate CounterTop, Place CounterTop"
+    run = drive(client, world, plan, max_steps=80)
+
+    assert run.sim.world.objects[butter_knife.object_id].parent_id == butter_knife.parent_id
+    assert run.sim.world.agent.held is None
+    assert all(event["rule"] != "stand-in" for event in run.last["plan"]["repair_log"])
+    assert run.last["subgoal"] == "Navigate Knife", run.last
 
 
 def test_without_poses_the_agent_dead_reckons_and_still_succeeds(client: TestClient) -> None:
@@ -308,6 +365,15 @@ def test_the_knife_in_the_drawer_above_the_one_opened_is_found(client: TestClien
     search must open the other instance, not rule out both with the first (generated valid_unseen game 63,
     where the agent once explored the room instead)."""
     _solves_generated_game(client, 63, "Put all ButterKnife on any Desk.")
+
+
+def test_the_knife_at_the_back_of_the_drawer_the_plan_opened_is_taken_from_it(client: TestClient) -> None:
+    """ "Open Drawer, Navigate Knife, Pickup Knife" with the drawer at the bottom edge of the view: clicked,
+    it showed a sliver, so the box of what is inside it must grow as looking down shows the rest; and the
+    knife at its back shows only from a step away, a viewpoint on a few known cells between lattice nodes
+    (generated valid_unseen Plate Of Toast game 5, where the agent once searched the kitchen for 600 steps
+    with the knife in sight)."""
+    _solves_generated_game(client, 5, "Make a plate of toast.", max_steps=200)
 
 
 def test_the_kettle_behind_a_cabinet_door_seen_many_times_is_found(client: TestClient) -> None:

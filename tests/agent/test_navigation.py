@@ -26,6 +26,7 @@ from agent.navigation.base import (
     Navigator,
     body_fits,
     turn_toward,
+    widened,
 )
 from agent.navigation.exploration import (
     FrontierExplorer,
@@ -227,6 +228,26 @@ def test_an_empty_goal_is_reported_as_such() -> None:
         seen(obstacles), frame_for(obstacles.shape), pose_at((50, 50)), NavGoal(np.zeros((100, 100), bool))
     )
     assert (decision.action, decision.reason) == (None, "no_goal")
+
+
+def test_a_goal_patch_between_lattice_nodes_is_reached_once_widened_by_half_the_lattice_diagonal() -> None:
+    """The agent stands only on the 0.25 m lattice through its start cell; a 3x3-cell patch of known floor
+    between four nodes holds none of them, so the navigator finds it unreachable, though a node lies
+    0.1 m away. Widened by half the lattice diagonal the patch holds that node, and the agent walks there
+    (the search's viewpoints on an open drawer, seen from a few known cells only)."""
+    obstacles, frame, start = room(100), frame_for((100, 100)), (50, 50)
+    patch = np.zeros((100, 100), dtype=bool)
+    patch[61:64, 61:64] = True  # nodes sit at cells 50 + 5k: 60 and 65 on both axes, none in 61-63
+    navigator = FmmNavigator()
+    lost = navigator.next_action(seen(obstacles), frame, pose_at(start), NavGoal(patch))
+    assert (lost.action, lost.reason) == (None, "unreachable")
+
+    grown = widened(patch, CELL_M, GRID_STEP_M * math.sqrt(2.0) / 2.0)
+    assert grown[patch].all() and grown[60, 60] and not grown[55, 55]
+    run = drive(navigator, obstacles, np.ones_like(obstacles), pose_at(start), NavGoal(grown), 20)
+    assert run.arrived and run.blocked_moves == 0
+    end = frame.world_to_cell(run.pose.x, run.pose.z)
+    assert grown[end] and math.dist(end, (62, 62)) * CELL_M <= GRID_STEP_M * math.sqrt(2.0) / 2.0 + CELL_M
 
 
 def test_fmm_steps_sideways_onto_a_goal_one_move_away() -> None:
