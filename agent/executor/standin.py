@@ -32,7 +32,7 @@ class SlicingStandIn(InstanceChoice):
         if subgoal.action not in (A.NAVIGATE, A.PICKUP) or tool not in tools:
             return False
         if self.state.belief.held is not None or self._known(tool):
-            return False
+            return False  # hands full: repair puts things down before the Pickup, decided then
         end = self._fetched_to_slice(tool)
         if end is None:
             return False
