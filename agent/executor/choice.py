@@ -383,8 +383,12 @@ class InstanceChoice(StepContext):
 
     def _remembered(self, obj: str, attempt: Attempt) -> int | None:
         """The instance the plan means, when the agent itself put an X down and the plan has not moved on
-        to another X since (``BeliefState.placed``); None once it could not be found there."""
+        to another X since (``BeliefState.placed``); None once it could not be found there, and while the
+        plan has just opened a container for X ("Open Microwave, Pickup Mug" means the mug in there, not
+        the one put on the counter earlier) that was not looked into yet."""
         if attempt.any_instance or obj not in self.state.belief.placed:
+            return None
+        if self._hint_box(obj, attempt) is not None:
             return None
         return self.state.memory.instance.get(obj)
 

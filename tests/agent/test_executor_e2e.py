@@ -386,6 +386,13 @@ def test_the_knife_at_the_back_of_the_drawer_the_plan_opened_is_taken_from_it(cl
     _solves_generated_game(client, 5, "Make a plate of toast.", max_steps=200)
 
 
+def test_open_microwave_then_pickup_mug_means_the_mug_in_there(client: TestClient) -> None:
+    """Breakfast: coffee made in one mug, put on the counter; later "Open Microwave, Pickup Mug" means the
+    mug in the microwave, though the agent itself put a mug down (generated valid_unseen game 71, where
+    the agent once walked back and forth between the two for 900 steps)."""
+    _solves_generated_game(client, 71, "Prepare breakfast.", max_steps=200)
+
+
 def test_the_kettle_behind_a_cabinet_door_seen_many_times_is_found(client: TestClient) -> None:
     """A row of cabinets opened door by door as seen (generated valid_unseen game 60: the map-part search
     once skipped the kettle's cabinet a dozen times as "not in view where it should be")."""
