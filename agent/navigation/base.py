@@ -159,16 +159,14 @@ def body_fits(blocked: np.ndarray, cell_m: float, radius_m: float) -> np.ndarray
     cell as a disk of its own half-width: a 0.3 m gap is closed for a 0.2 m radius, a 0.6 m gap keeps a
     0.2 m wide band of standable centres.
     """
-    if radius_m < 0.0:
-        raise ValueError(f"radius_m must be non-negative, got {radius_m}")
-    kernel = _disk_kernel((radius_m + cell_m / 2.0) / cell_m)
-    grown = cv2.dilate(np.ascontiguousarray(blocked).view(np.uint8), kernel)
-    return grown == 0
+    return ~widened(blocked, cell_m, radius_m)
 
 
 def widened(cells: np.ndarray, cell_m: float, radius_m: float) -> np.ndarray:
-    """bool [X, Z]: ``cells`` grown by a disk of ``radius_m``. A goal smaller than the 0.25 m lattice may
-    hold no node the agent can stand on; grown by half the lattice diagonal it always holds one."""
+    """bool [X, Z]: ``cells`` grown by a disk of ``radius_m`` (each cell a disk of its own half-width). The
+    obstacles grown by the body radius are where the body does not fit (``body_fits``); a goal smaller than
+    the 0.25 m lattice may hold no node the agent can stand on, grown by half the lattice diagonal it
+    always holds one."""
     if radius_m < 0.0:
         raise ValueError(f"radius_m must be non-negative, got {radius_m}")
     kernel = _disk_kernel((radius_m + cell_m / 2.0) / cell_m)
