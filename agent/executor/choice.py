@@ -105,8 +105,19 @@ class InstanceChoice(StepContext):
         if self._lies_at_destination(obj, x, z, y) not in (None, *WORK_SURFACES):
             return True
         wanted = self._wanted_look(obj)
+        if wanted is None or self._filled_by_agent(obj, x, z):
+            return False
         seen = self._looks_at(obj, x, z)
-        return wanted is not None and seen != "unknown" and seen != wanted
+        return seen != "unknown" and seen != wanted
+
+    def _filled_by_agent(self, obj: str, x: float, z: float) -> bool:
+        """Whether this X is the one the agent filled (coffee, water) and put where it stands: what fills
+        it colours the stain cue. A mug full of the coffee just made looked dirty, so the agent passed it
+        over to carry it to the table and searched the kitchen for a clean one (Breakfast game 23)."""
+        where = self.state.memory.where.get(obj)
+        if obj not in self.state.belief.filled or where is None:
+            return False
+        return math.hypot(where[0] - x, where[2] - z) <= self.cfg.done_radius_m
 
     def _second_rate_known(self, obj: str, attempt: Attempt) -> bool:
         """Whether a second-rate instance is in view or mapped (one to fall back on)."""

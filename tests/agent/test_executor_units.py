@@ -1013,3 +1013,27 @@ def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_a
 
     assert attempt.search.visit is None
     assert cabinet.searched_for == ["Bowl"], "the search moves on to another container"
+
+
+def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -> None:
+    # Breakfast game 23: "Pickup Mug" given up, so repair dropped the mug's "Navigate DiningTable, Place
+    # DiningTable" and kept the plate's, the knife's and the slice's. Only the two dropped ones wait for the
+    # retry; the plate and the knife, done meanwhile, must not be done over (once the retry took the mug
+    # off the table again to free the hand for a plate already there).
+    from agent.executor.executor import _dropped
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    onto = load_ontology()
+    before = parse_subgoals(
+        "Navigate DiningTable, Place DiningTable, Navigate Plate, Pickup Plate, Navigate DiningTable, "
+        "Place DiningTable, Navigate Drawer, Open Drawer, Pickup Knife, Close Drawer, Navigate Apple, "
+        "Slice Apple, Place DiningTable, Pickup AppleSliced, Navigate Plate, Place Plate",
+        onto,
+    )
+    after = before[2:]
+    assert _dropped(before, after) == before[:2]
+
+    with_inserted = [*after[:4], *parse_subgoals("Place CounterTop", onto), *after[4:]]
+    assert _dropped(before, with_inserted) == before[:2]
+    assert _dropped(before, [before[0], *before[3:]]) == before[1:3]
