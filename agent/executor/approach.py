@@ -148,6 +148,11 @@ class Approach(InstanceChoice):
             sides.append((int((ring & (off <= 45.0)).sum()), cells, centre))
         return sides
 
+    def _front_record(self, body: MapCluster) -> tuple[float, float, float, float] | None:
+        """What was learned when this container opened (``Memory.fronts``): the record nearest it."""
+        near = [f for f in self.state.memory.fronts if body.distance_to(f[0], f[1]) <= 0.5]
+        return min(near, key=lambda f: math.hypot(f[0] - body.x, f[1] - body.z), default=None)
+
     def _known_front(
         self, body: MapCluster, sides: list[tuple[int, np.ndarray, float]] | None = None
     ) -> float | None:
@@ -155,10 +160,10 @@ class Approach(InstanceChoice):
         floor to stand on that way (at least ``FRONT_FLOOR_SHARE`` of the most open side's, ``_side_floor``,
         passed as ``sides`` when at hand): a microwave's door swings sideways, so its swing can point at
         the wall beside it."""
-        near = [f for f in self.state.memory.fronts if body.distance_to(f[0], f[1]) <= 0.5]
-        if not near:
+        record = self._front_record(body)
+        if record is None:
             return None
-        front = min(near, key=lambda f: math.hypot(f[0] - body.x, f[1] - body.z))[2]
+        front = record[2]
         floor_toward = {direction: count for count, _, direction in sides or self._side_floor(body)}
         most = max(floor_toward.values())
         return front if most == 0 or floor_toward.get(front, 0) >= FRONT_FLOOR_SHARE * most else None

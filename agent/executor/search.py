@@ -66,6 +66,10 @@ STAND_OFF_M = 0.75
 """Metres (horizontally) from a low container's face to where it is opened and looked into from. The
 counter top hides what lies inside from a camera at 1.58 m standing closer: a mug 0.38 m behind the face of
 a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight must pass under the top)."""
+DOOR_ASIDE_M = 0.15
+"""Metres across the front a swung door's cells must lie from the middle to count as a side-hinged door."""
+DOOR_CLEARANCE_M = 0.1
+"""Metres a viewpoint keeps inside the line of a swung door, so the door does not hide what is inside."""
 FRONT_CONE_DEG = 35.0
 """Degrees either side of a container's facing within which it is opened and looked into: from the side,
 its own walls and its swung door hide the inside."""
@@ -445,7 +449,7 @@ class ContainerSearch(Approach):
             look = self._look_into(obj, attempt, visit)
             if look is not None:
                 return look
-            if visit.hinted:
+            if visit.hinted and not visit.reopen:
                 attempt.hint_checked = True  # not in there after all: any X will do now
             visit.stage, visit.looks = "close", 0
         action = "Open" if visit.stage == "open" else "Close"
@@ -455,7 +459,8 @@ class ContainerSearch(Approach):
             key=lambda v: (v.instance_id != visit.instance_id, math.dist(v.point, target)),
         )
         opened = self.state.opened_for.setdefault(obj, []) if self.view.percept.persistent_ids else []
-        if visit.stage == "open" and candidates and candidates[0].instance_id in opened:
+        again = visit.reopened  # opened for X once already, from beside it: this time from in front
+        if visit.stage == "open" and not again and candidates and candidates[0].instance_id in opened:
             if math.dist(candidates[0].point, target) <= SAME_DOOR_M:
                 return self._skip_container(obj, attempt, "was looked into already")
             candidates = [v for v in candidates if v.instance_id not in opened]  # its neighbour was
@@ -512,6 +517,9 @@ class ContainerSearch(Approach):
         low = target[1] < LOW_FACE_M
         facing = self._facing(visit.object_type, target, visit.instance_id)
         ahead = self._front_cone(goal, target, facing, STAND_OFF_M if low else TALL_STAND_OFF_M)
+        past_door = ahead & self._door_clear(visit.object_type, target)
+        if past_door.any():
+            return past_door
         if ahead.any():
             return ahead
         if not low:
@@ -520,8 +528,13 @@ class ContainerSearch(Approach):
         return far if far.any() else goal
 
     def _facing(self, kind: str, face: Point, instance_id: int | None) -> float | None:
-        """The axis direction (degrees) a sighted container's face looks toward (``sightings.facing``);
-        None for a container known only from the map."""
+        """The axis direction (degrees) a container's face looks toward: the way its door was seen to
+        swing (``_known_front``), else the face of it seen most (``sightings.facing``); None for a
+        container known only from the map. A fridge approached from beside it shows its side most."""
+        body = self._container_body(kind, face)
+        swung = self._known_front(body) if body is not None else None
+        if swung is not None:
+            return swung
         known = sightings.find(self.state.containers, kind, face, instance_id)
         return sightings.facing(known) if known is not None else None
 
@@ -623,9 +636,15 @@ class ContainerSearch(Approach):
             fresh &= np.hypot(xs[:, None] - x, zs[None, :] - z) > self.cfg.search.viewpoint_gap_m
         goal = np.zeros_like(reachable)
         known = sightings.find(self.state.containers, kind, inside, visit.instance_id)
-        front = sightings.facing(known) if known is not None else None  # straight in front of it, first
-        front = front if front is not None else self._known_front(body or part)
-        apex = known.point if known is not None else inside  # its face's centre, not the door's edge clicked
+        voted = sightings.facing(known) if known is not None else None
+        # Straight in front of it, first: the way its door was seen to swing at this Open, else the face
+        # most seen. A fridge approached from beside it shows its side most, and its inside only from in
+        # front (generated valid_unseen game 20, where the bowl in the fridge the plan opened was looked
+        # for from beside it, then searched for in the whole kitchen).
+        front = self._known_front(body or part)
+        front = front if front is not None else voted
+        # its face's centre, not the door's edge clicked; that face only if it is the front
+        apex = known.point if known is not None and voted == front else inside
         cone = None
         if front is not None:
             low = inside[1] < LOW_FACE_M
@@ -641,6 +660,8 @@ class ContainerSearch(Approach):
                 goal = reachable & fresh & side
         if cone is not None and visit.side == front and cone.any():
             goal = cone
+        past_door = goal & self._door_clear(kind, inside)
+        goal = past_door if past_door.any() else goal
         if not goal.any():
             self.events.append(f"search({obj}): no other place to look into the {kind} from")
             return None
@@ -655,6 +676,8 @@ class ContainerSearch(Approach):
             return Act(nav.action, f"search({obj}): look into the {kind} from elsewhere", path=nav.path)
         if nav.reason != "arrived":
             self.events.append(f"search({obj}): cannot reach another place to look into the {kind} from")
+            if visit.hinted and not visit.reopened and cone is not None and visit.side == front:
+                visit.reopen = True  # opened from beside it, its door now bars the way to its front
             return None
         visit.moving = False
         visit.inspect_steps = 0
@@ -662,6 +685,42 @@ class ContainerSearch(Approach):
         if turn is not None:
             return Act(turn, f"search({obj}): face the open {kind}")
         return self._look_into(obj, attempt, visit)
+
+    def _front_middle(self, kind: str, clicked: Point) -> Point:
+        """The middle of the front face of the container opened at ``clicked`` (a point on its face or
+        door edge), at its height: across the front, the middle of what it covered before it opened
+        (``Memory.fronts``; the map keeps its swung door's cells); ``clicked`` when the front is unknown."""
+        body = self._container_body(kind, clicked)
+        front = self._known_front(body) if body is not None else None
+        record = self._front_record(body) if body is not None else None
+        if front is None or record is None:
+            return clicked
+        x0, z0, _, _ = record
+        return (clicked[0], clicked[1], z0) if abs(front) == 90.0 else (x0, clicked[1], clicked[2])
+
+    def _door_clear(self, kind: str, point: Point) -> np.ndarray:
+        """bool [X, Z]: the cells from which the swung door of the container around ``point`` does not hide
+        its inside, all of them when no door was seen to swing to one side. The door stands out of the
+        front at the hinge, so the inside shows only from the far side of the door's line: from beyond it,
+        the fridge's door hid the bowl from both places the agent looked in from (generated valid_unseen
+        games 20 and 88)."""
+        frame = self.view.map.frame
+        clear = np.ones(self.view.map.shape, dtype=bool)
+        body = self._container_body(kind, point)
+        front = self._known_front(body) if body is not None else None
+        record = self._front_record(body) if body is not None else None
+        if front is None or record is None:
+            return clear
+        x0, z0, _, door = record
+        if abs(door) < DOOR_ASIDE_M:
+            return clear  # a drawer slides straight out: nothing stands to one side of its front
+        across_x = abs(front) != 90.0  # a front toward ±z runs along x
+        X, Z = clear.shape
+        if across_x:
+            across = frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m - (x0 + door)
+            return np.broadcast_to((across * -np.sign(door) >= DOOR_CLEARANCE_M)[:, None], (X, Z)).copy()
+        across = frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m - (z0 + door)
+        return np.broadcast_to((across * -np.sign(door) >= DOOR_CLEARANCE_M)[None, :], (X, Z)).copy()
 
     def _container_body(self, kind: str, near: Point) -> MapCluster | None:
         """The mapped cells of the container of type ``kind`` around a point of it (within a metre)."""
@@ -699,7 +758,8 @@ class ContainerSearch(Approach):
         side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
         fronts = self.state.memory.fronts
         fronts[:] = [f for f in fronts if math.hypot(f[0] - x0, f[1] - z0) > FRONT_SAME_M]
-        fronts.append((x0, z0, side))
+        door = nz - z0 if abs(side) == 90.0 else nx - x0  # across the front: where the door swung out
+        fronts.append((x0, z0, side, door))
         self.events.append(f"the {kind} at ({x0:.2f}, {z0:.2f}) opens toward {side:g}°")
 
     def _opened_box(self, kind: str, pending: Pending) -> Box | None:
@@ -811,6 +871,16 @@ class ContainerSearch(Approach):
                 visit.instance_id = pending.click.instance_id
                 self._mark_opened(visit, attempt.subgoal.obj)
                 self.events.append(f"search: the {visit.object_type} was open already")
+        elif visit.stage == "close" and visit.reopen and success:
+            # Opened from beside it (the plan's "Navigate Fridge" ended there), its swung door hid the inside
+            # and barred the way to its front: open it once more from in front (generated valid_unseen game
+            # 20, where the bowl in the fridge the plan opened was never seen, and the kitchen searched).
+            visit.stage, visit.reopen, visit.reopened = "open", False, True
+            visit.looks, visit.inspect_steps, visit.sweep = 0, 0, []
+            visit.moving, visit.side, visit.sides = False, None, []
+            if visit.opened_at is not None:  # aim at the middle of its front, not the door's edge clicked
+                visit.target, visit.opened_at = self._front_middle(visit.object_type, visit.opened_at), None
+            self.events.append(f"search: closed the {visit.object_type} to open it again from in front")
         elif visit.stage == "close":
             self._mark_opened(visit, attempt.subgoal.obj)
             self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))

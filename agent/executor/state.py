@@ -114,9 +114,10 @@ class Memory:
     instance: dict[str, int] = field(default_factory=dict)
     """Type -> segmentation id of the instance the agent last picked up (AI2-THOR's ids, and ours, are
     stable within an episode): after putting it down, the plan's next use of the type means that one."""
-    fronts: list[tuple[float, float, float]] = field(default_factory=list)
-    """(x, z, direction in degrees) of containers whose front showed when they opened: the door swings out
-    in front, so the new cells lie that way (a fridge in a corner faces the narrow gap, not the room)."""
+    fronts: list[tuple[float, float, float, float]] = field(default_factory=list)
+    """(x, z, direction in degrees, door) of containers whose front showed when they opened: the door swings
+    out in front, so the new cells lie that way (a fridge in a corner faces the narrow gap, not the room);
+    ``door`` (metres, signed) is how far across the front from (x, z) the new cells lie: the hinge side."""
     opened_box: dict[str, Box] = field(default_factory=dict)
     """Container type -> world box of the one last opened: "Open Cabinet, Pickup Plate" means the plate in
     there, not a dirty one in the sink beside it."""
@@ -165,6 +166,8 @@ class ContainerVisit:
     side: float | None = None  # direction (degrees) of the side being walked to
     sides: list[float] = field(default_factory=list)  # sides of it walked to so far
     hinted: bool = False  # the plan opened it for the target (so it is worth a second viewpoint)
+    reopen: bool = False  # its own open door bars the way to its front: close it, open it from there
+    reopened: bool = False  # it was closed and opened again from in front (once per visit)
     extent: Box | None = None  # the opened instance's extent as seen when opening it
     looks: int = 0  # turns and pitch changes spent without a clickable view of it
 

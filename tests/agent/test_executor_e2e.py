@@ -401,6 +401,25 @@ def test_the_mug_full_of_the_coffee_just_made_is_the_one_carried_to_the_table(cl
     _solves_generated_game(client, 23, "Prepare breakfast.", max_steps=250)
 
 
+def test_the_bowl_in_a_fridge_opened_from_beside_it_is_found_by_opening_it_again_from_in_front(
+    client: TestClient,
+) -> None:
+    """ "Navigate Fridge, Open Fridge, Pickup Bowl": the plan's Navigate ended beside the fridge, whose side
+    it had seen most; opened from there, its door hid the bowl and barred the way to its front. The agent
+    closes it and opens it again from in front (generated valid_unseen game 20, where it once looked in
+    from beside it twice and then searched the kitchen until the step limit)."""
+    _solves_generated_game(client, 20, "Cook 3 slice(s) of Potato and serve in a Bowl.", max_steps=200)
+
+
+def test_the_potato_in_a_fridge_is_looked_for_from_the_side_its_door_does_not_hide(
+    client: TestClient,
+) -> None:
+    """ "Open Fridge, Pickup Potato" with the agent standing behind the swung door: the other viewpoints lie
+    on the far side of the door's line, where the inside shows (generated valid_unseen game 88, where
+    both viewpoints once lay behind the door and the potato was never found)."""
+    _solves_generated_game(client, 88, "Boil Potato.", max_steps=300)
+
+
 def test_the_kettle_behind_a_cabinet_door_seen_many_times_is_found(client: TestClient) -> None:
     """A row of cabinets opened door by door as seen (generated valid_unseen game 60: the map-part search
     once skipped the kettle's cabinet a dozen times as "not in view where it should be")."""
