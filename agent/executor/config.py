@@ -65,7 +65,7 @@ class ExecutorConfig:
     failures_per_stand: int = 2  # failed clicks from one standing spot before moving elsewhere
     max_failures: int = 6  # failed object actions before the subgoal is given up
     max_steps_per_subgoal: int = 300  # actions spent on one subgoal before it is given up
-    max_given_up: int = 8  # subgoals given up before the episode stops (TEACh allows 1000 steps to use)
+    max_given_up: int = 4  # subgoals given up before the episode stops
     retry_rounds: int = 1  # times the given-up subgoals are tried again when the plan runs out ...
     retry_min_steps: int = 100  # ... if at least this many actions of the episode are left (and a
     # subgoal's worth of failed actions, ``max_failures``)
