@@ -44,6 +44,7 @@ from harness.splits import SPLITS, Split
 from harness.tasks.alfred import AlfredTask
 from harness.tasks.progress import GoalReport
 from harness.tasks.teach import BENCHMARK_TASKS
+from harness.world import World
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import format_subgoals
 from symbolic.thor import (
@@ -280,6 +281,69 @@ def session_payload(episode: Episode, options: RunnerOptions) -> dict[str, Any]:
     return payload
 
 
+@dataclass
+class EpisodeLog:
+    """What a running episode gathers (its actions, failures by reason, how it ended) and the EpisodeRun it
+    becomes. Every way of driving an episode through the service (native, TEACh's RemoteModel, commander and
+    follower) keeps one, so the failure limit and the metrics row are the same for all."""
+
+    episode: Episode
+    initial_report: GoalReport
+    max_failures: int
+    started: float = field(default_factory=time.perf_counter)
+    actions: list[ActionRecord] = field(default_factory=list)
+    failures: Counter[str] = field(default_factory=Counter)
+    frames: list[np.ndarray] = field(default_factory=list)
+    end_reason: EndReason = "step_limit"
+    error_detail: str | None = None
+
+    def add(self, record: ActionRecord, progress: PlanProgress | None = None) -> bool:
+        """Keep one carried-out action; True when its failure reaches the limit, which ends the episode."""
+        self.actions.append(record)
+        if record.failure is None:
+            return False
+        self.failures[record.failure] += 1
+        if progress is not None:
+            progress.failed(record.plan_version, record.pointer)
+        if sum(self.failures.values()) < self.max_failures:
+            return False
+        self.end_reason = "failure_limit"
+        return True
+
+    def broken(self, error: Exception) -> None:
+        """The service or the connection failed: the episode ends here, with the reason kept."""
+        self.end_reason, self.error_detail = "error", str(error)
+
+    def finished(self, world: World, created: Mapping[str, Any], progress: PlanProgress | None) -> EpisodeRun:
+        """Score the world as the episode left it. ``created`` is the session as created (its id and plan);
+        ``progress`` is None when the protocol reports no plan with each action (TEACh's RemoteModel)."""
+        final_report = self.episode.check(world)
+        wall_s = time.perf_counter() - self.started
+        outcome = episode_outcome(
+            self.episode,
+            self.initial_report,
+            final_report,
+            self.actions,
+            self.failures,
+            self.end_reason,
+            wall_s,
+        )
+        return EpisodeRun(
+            episode=self.episode,
+            session_id=str(created["session_id"]),
+            outcome=outcome,
+            end_reason=self.end_reason,
+            actions=self.actions,
+            plans=progress.plans if progress is not None else [_plan_texts(created["plan"])],
+            subgoals=progress.outcomes() if progress is not None else [],
+            initial_plan=dict(created["plan"]),
+            initial_report=self.initial_report,
+            final_report=final_report,
+            frames=self.frames,
+            error_detail=self.error_detail,
+        )
+
+
 StepListener = Callable[[ActionRecord, Mapping[str, Any]], None]
 """Called after each action is carried out, with its record and the service's StepResult (live progress)."""
 
@@ -295,22 +359,16 @@ def run_episode(
     encoding = options.encoding()
     look_step = ALFRED_LOOK_STEP_DEG if episode.benchmark == "alfred" else TEACH_LOOK_STEP_DEG
     simulator = Simulator(episode.world.copy(), options.camera, look_step_deg=look_step)
-    initial_report = episode.check(simulator.world)
-    started = time.perf_counter()
+    log = EpisodeLog(episode, episode.check(simulator.world), options.max_failures)
     created = client.create_session(session_payload(episode, options))
     session_id = str(created["session_id"])
     progress = PlanProgress(created["plan"])
-    actions: list[ActionRecord] = []
-    failures: Counter[str] = Counter()
-    frames: list[np.ndarray] = []
-    end_reason: EndReason = "step_limit"
-    error_detail = None
     last_success: bool | None = None
     try:
         for step in range(options.max_steps):
             frame = simulator.observe(noise_seed=step if options.noise else None)
             if options.record_frames and frame.rgb is not None:
-                frames.append(frame.rgb)
+                log.frames.append(frame.rgb)
             result = client.step(
                 session_id,
                 frame,
@@ -321,44 +379,24 @@ def run_episode(
             )
             version, pointer = progress.see(result)
             record = execute_action(simulator, step, result, version, pointer)
-            actions.append(record)
             if on_step is not None:
                 on_step(record, result)
             last_success = record.success
-            if record.failure is not None:
-                failures[record.failure] += 1
-                progress.failed(version, pointer)
-                if sum(failures.values()) >= options.max_failures:
-                    end_reason = "failure_limit"
-                    break
+            if log.add(record, progress):
+                break
             if record.action == "Stop" or result.get("done"):
-                end_reason = "stop"
+                log.end_reason = "stop"
                 break
     except (ServiceError, httpx.HTTPError) as error:
-        end_reason, error_detail = "error", str(error)
+        log.broken(error)
     if options.record_frames:
         final_rgb = simulator.observe(noise_seed=None).rgb
         if final_rgb is not None:
-            frames.append(final_rgb)
-    final_report = episode.check(simulator.world)
-    wall_s = time.perf_counter() - started
+            log.frames.append(final_rgb)
+    run = log.finished(simulator.world, created, progress)
     if options.delete_session:
         _delete_quietly(client, session_id)
-    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
-    return EpisodeRun(
-        episode=episode,
-        session_id=session_id,
-        outcome=outcome,
-        end_reason=end_reason,
-        actions=actions,
-        plans=progress.plans,
-        subgoals=progress.outcomes(),
-        initial_plan=dict(created["plan"]),
-        initial_report=initial_report,
-        final_report=final_report,
-        frames=frames,
-        error_detail=error_detail,
-    )
+    return run
 
 
 def execute_action(
@@ -554,14 +592,9 @@ def run_teach_episode(
     options = options or RunnerOptions()
     look_step = int(episode.metadata.get("look_step_deg", TEACH_LOOK_STEP_DEG))
     simulator = Simulator(episode.world.copy(), options.camera, look_step_deg=look_step)
-    initial_report = episode.check(simulator.world)
-    started = time.perf_counter()
+    log = EpisodeLog(episode, episode.check(simulator.world), options.max_failures)
     data = instance.edh_instance
     instance_id = str(data.get("instance_id", episode.instance_id))
-    actions: list[ActionRecord] = []
-    failures: Counter[str] = Counter()
-    end_reason: EndReason = "step_limit"
-    error_detail = None
     created: dict[str, Any] = {"session_id": "", "plan": {"subgoals": [], "text": "", "pointer": 0}}
     try:
         created = model.start_new_edh_instance(data, instance.history_images, instance.edh_name)
@@ -574,35 +607,15 @@ def run_teach_episode(
                 Image.fromarray(frame.rgb), data, prev_action, img_name, instance.edh_name
             )
             record = _execute_teach_action(simulator, step, str(action), coord)
-            actions.append(record)
             prev_action = {"action": action, "obj_relative_coord": coord}
-            if record.failure is not None:
-                failures[record.failure] += 1
-                if sum(failures.values()) >= options.max_failures:
-                    end_reason = "failure_limit"
-                    break
+            if log.add(record):
+                break
             if action == "Stop":
-                end_reason = "stop"
+                log.end_reason = "stop"
                 break
     except (ServiceError, httpx.HTTPError) as error:
-        end_reason, error_detail = "error", str(error)
-    final_report = episode.check(simulator.world)
-    wall_s = time.perf_counter() - started
-    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
-    progress = PlanProgress(created["plan"])
-    return EpisodeRun(
-        episode=episode,
-        session_id=str(created["session_id"]),
-        outcome=outcome,
-        end_reason=end_reason,
-        actions=actions,
-        plans=progress.plans,
-        subgoals=[],
-        initial_plan=dict(created["plan"]),
-        initial_report=initial_report,
-        final_report=final_report,
-        error_detail=error_detail,
-    )
+        log.broken(error)
+    return log.finished(simulator.world, created, None)
 
 
 def _execute_teach_action(

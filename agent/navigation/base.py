@@ -209,7 +209,7 @@ def turn_to_face(pose: Pose, frame: GridFrame, face: np.ndarray) -> str | None:
     return turn_toward(heading, wanted)
 
 
-def decide_on_goal(pose: Pose, frame: GridFrame, goal: NavGoal) -> NavDecision:
+def _decide_on_goal(pose: Pose, frame: GridFrame, goal: NavGoal) -> NavDecision:
     """The answer while standing on a goal cell: turn to face the target if one is given, else stop."""
     turn = None if goal.face is None else turn_to_face(pose, frame, goal.face)
     if turn is None:
@@ -217,11 +217,25 @@ def decide_on_goal(pose: Pose, frame: GridFrame, goal: NavGoal) -> NavDecision:
     return NavDecision(action=turn, reason="face_target", distance_m=0.0)
 
 
-def check_goal_shape(goal: NavGoal, grids: NavGrids) -> None:
+def _check_goal_shape(goal: NavGoal, grids: NavGrids) -> None:
     """ValueError naming the goal layer whose shape differs from the map's."""
     for name, grid in (("cells", goal.cells), ("face", goal.face)):
         if grid is not None and grid.shape != grids.shape:
             raise ValueError(f"goal {name} has shape {grid.shape}, the map {grids.shape}")
+
+
+def start_cell_or_decision(
+    grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal
+) -> tuple[Cell, NavDecision | None]:
+    """The agent's cell, and the decision when no path is needed: on a goal cell (face it or stop) or with
+    no goal cell at all. Every navigator starts here, so they answer these cases alike."""
+    _check_goal_shape(goal, grids)
+    cell = agent_cell(frame, pose, grids.shape)
+    if goal.cells[cell]:
+        return cell, _decide_on_goal(pose, frame, goal)
+    if not goal.cells.any():
+        return cell, NavDecision(action=None, reason="no_goal", distance_m=math.inf)
+    return cell, None
 
 
 @dataclass(frozen=True)

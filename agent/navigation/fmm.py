@@ -32,12 +32,10 @@ from agent.navigation.base import (
     NavDecision,
     NavGoal,
     NavGrids,
-    agent_cell,
     body_fits,
     cells_per_step,
-    check_goal_shape,
-    decide_on_goal,
     heading_of,
+    start_cell_or_decision,
     turn_toward,
     without_body,
 )
@@ -242,12 +240,9 @@ class FmmNavigator:
 
     def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
         """Re-plan from scratch and take the first move of the cheapest lattice path to a goal cell."""
-        check_goal_shape(goal, grids)
-        cell = agent_cell(frame, pose, grids.shape)
-        if goal.cells[cell]:
-            return decide_on_goal(pose, frame, goal)
-        if not goal.cells.any():
-            return NavDecision(action=None, reason="no_goal", distance_m=math.inf)
+        cell, settled = start_cell_or_decision(grids, frame, pose, goal)
+        if settled is not None:
+            return settled
         collisions = self.collisions.mask(frame)
         if grids.collisions is not None:
             collisions |= grids.collisions

@@ -33,11 +33,9 @@ from agent.navigation.base import (
     NavDecision,
     NavGoal,
     NavGrids,
-    agent_cell,
     cells_per_step,
-    check_goal_shape,
-    decide_on_goal,
     heading_of,
+    start_cell_or_decision,
     turn_toward,
 )
 from symbolic.thor import GRID_STEP_M
@@ -180,12 +178,9 @@ class VinNavigator:
 
     def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
         """Solve the MDP afresh and map its greedy action at the agent's state through HLSM Table 4."""
-        check_goal_shape(goal, grids)
-        cell = agent_cell(frame, pose, grids.shape)
-        if goal.cells[cell]:
-            return decide_on_goal(pose, frame, goal)
-        if not goal.cells.any():
-            return NavDecision(action=None, reason="no_goal", distance_m=math.inf)
+        cell, settled = start_cell_or_decision(grids, frame, pose, goal)
+        if settled is not None:
+            return settled
         blocked = grids.blocked() | self.collisions.mask(frame)
         lattice = Lattice.through(cell, grids.shape, cells_per_step(frame))
         states = VinStates.pool(blocked, grids.explored, goal.cells, lattice)

@@ -21,8 +21,6 @@ themselves, an upper bound for any follower.
 from __future__ import annotations
 
 import contextlib
-import time
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -34,12 +32,10 @@ from harness.commander.bot import Commander, InfoLevel
 from harness.commander.tools import CommanderTools
 from harness.episodes.model import Episode
 from harness.runner import (
-    ActionRecord,
-    EndReason,
+    EpisodeLog,
     EpisodeRun,
     PlanProgress,
     RunnerOptions,
-    episode_outcome,
     execute_action,
     session_payload,
 )
@@ -62,8 +58,7 @@ def run_tatc_episode(
     options = replace(options or RunnerOptions(), planner="model")
     simulator = Simulator(episode.world.copy(), options.camera, look_step_deg=TEACH_LOOK_STEP_DEG)
     commander = Commander(episode.task, CommanderTools(options.camera), info)
-    initial_report = episode.check(simulator.world)
-    started = time.perf_counter()
+    log = EpisodeLog(episode, episode.check(simulator.world), options.max_failures)
     first = commander.respond(simulator.world)
     payload = session_payload(episode, options)
     payload["mode"] = "tatc"
@@ -74,10 +69,6 @@ def run_tatc_episode(
     created = client.create_session(payload)
     session_id = str(created["session_id"])
     progress = PlanProgress(created["plan"])
-    actions: list[ActionRecord] = []
-    failures: Counter[str] = Counter()
-    end_reason: EndReason = "step_limit"
-    error_detail = None
     turns = 1
     try:
         for step in range(options.max_steps):
@@ -92,46 +83,26 @@ def run_tatc_episode(
             version, pointer = progress.see(result)
             question = result.get("utterance")
             if result["action"] != "Stop":
-                record = execute_action(simulator, step, result, version, pointer)
-                actions.append(record)
-                if record.failure is not None:
-                    failures[record.failure] += 1
-                    progress.failed(version, pointer)
-                    if sum(failures.values()) >= options.max_failures:
-                        end_reason = "failure_limit"
-                        break
+                if log.add(execute_action(simulator, step, result, version, pointer), progress):
+                    break
             elif not question:
-                end_reason = "stop"  # the follower ended the episode itself
+                log.end_reason = "stop"  # the follower ended the episode itself
                 break
             if question:
                 client.add_utterance(session_id, "Driver", str(question))
                 answer = commander.respond(simulator.world)
                 turns += 1
                 if answer.task_done or turns > MAX_COMMANDER_TURNS:
-                    end_reason = "stop" if answer.task_done else "step_limit"
+                    log.end_reason = "stop" if answer.task_done else "step_limit"
                     break
                 client.add_utterance(session_id, "Commander", answer.text)
     except (ServiceError, httpx.HTTPError) as error:
-        end_reason, error_detail = "error", str(error)
-    final_report = episode.check(simulator.world)
-    wall_s = time.perf_counter() - started
+        log.broken(error)
+    run = log.finished(simulator.world, created, progress)
     if options.delete_session:
         with contextlib.suppress(ServiceError, httpx.HTTPError):  # the episode is over either way
             client.delete(session_id)
-    outcome = episode_outcome(episode, initial_report, final_report, actions, failures, end_reason, wall_s)
-    return EpisodeRun(
-        episode=episode,
-        session_id=session_id,
-        outcome=outcome,
-        end_reason=end_reason,
-        actions=actions,
-        plans=progress.plans,
-        subgoals=progress.outcomes(),
-        initial_plan=dict(created["plan"]),
-        initial_report=initial_report,
-        final_report=final_report,
-        error_detail=error_detail,
-    )
+    return run
 
 
 # ---- a follower that does exactly what it is told --------------------------------------------------------
