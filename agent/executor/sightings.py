@@ -98,12 +98,16 @@ def observe(
     ids = instances[rows, cols]  # [h, w]
     ok = wanted[r0:r1, c0:c1]  # [h, w]
     found, inverse, counts = np.unique(ids[ok], return_inverse=True, return_counts=True)
-    sums = np.stack([np.bincount(inverse, weights=points[ok][:, k]) for k in range(3)], axis=1)  # [I, 3]
+    picked = points[ok]  # [n, 3]
+    sums = np.stack([np.bincount(inverse, weights=picked[:, k]) for k in range(3)], axis=1)  # [I, 3]
     classes = np.zeros(len(found), dtype=np.int64)
     classes[inverse] = class_ids[rows, cols][ok]
 
-    right, down = points[:-1, 1:] - points[:-1, :-1], points[1:, :-1] - points[:-1, :-1]  # [h-1, w-1, 3]
-    normal = np.cross(down, right)
+    # One [h, w] array per coordinate: reductions over a 3-long last axis cost more than the arithmetic.
+    px, py, pz = np.ascontiguousarray(points.transpose(2, 0, 1))
+    rx, ry, rz = px[:-1, 1:] - px[:-1, :-1], py[:-1, 1:] - py[:-1, :-1], pz[:-1, 1:] - pz[:-1, :-1]  # right
+    dx, dy, dz = px[1:, :-1] - px[:-1, :-1], py[1:, :-1] - py[:-1, :-1], pz[1:, :-1] - pz[:-1, :-1]  # down
+    nx, ny, nz = dy * rz - dz * ry, dz * rx - dx * rz, dx * ry - dy * rx  # down x right, [h-1, w-1]
     here = ids[:-1, :-1]
     valid = (
         ok[:-1, :-1]
@@ -111,14 +115,15 @@ def observe(
         & ok[1:, :-1]
         & (ids[:-1, 1:] == here)
         & (ids[1:, :-1] == here)
-        & (np.linalg.norm(right, axis=2) <= MAX_STEP_M)
-        & (np.linalg.norm(down, axis=2) <= MAX_STEP_M)
+        & (np.sqrt(rx * rx + ry * ry + rz * rz) <= MAX_STEP_M)
+        & (np.sqrt(dx * dx + dy * dy + dz * dz) <= MAX_STEP_M)
     )
-    length = np.linalg.norm(normal, axis=2)
-    valid &= (length > 0) & (np.abs(normal[..., 1]) <= UPRIGHT * length)
-    toward = camera_position(camera, pose) - points[:-1, :-1]
-    flip = np.where((normal * toward).sum(axis=2) < 0, -1.0, 1.0)  # [h-1, w-1]: face the camera
-    bearing = np.degrees(np.arctan2(normal[..., 0] * flip, normal[..., 2] * flip))
+    length = np.sqrt(nx * nx + ny * ny + nz * nz)
+    valid &= (length > 0) & (np.abs(ny) <= UPRIGHT * length)
+    eye_x, eye_y, eye_z = camera_position(camera, pose)
+    toward = nx * (eye_x - px[:-1, :-1]) + ny * (eye_y - py[:-1, :-1]) + nz * (eye_z - pz[:-1, :-1])
+    flip = np.where(toward < 0, -1.0, 1.0)  # [h-1, w-1]: face the camera
+    bearing = np.degrees(np.arctan2(nx * flip, nz * flip))
     side = np.round(bearing / 90.0).astype(np.int64) % 4  # 0: 0°, 1: 90°, 2: 180°, 3: -90°
     index = np.searchsorted(found, here[valid])  # every valid sample's instance is in ``found``
     votes = np.bincount(index * 4 + side[valid], minlength=4 * len(found)).reshape(len(found), 4)
