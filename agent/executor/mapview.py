@@ -240,18 +240,24 @@ class SessionMapView:
         return cells
 
     def clusters(self, object_type: str) -> list[MapCluster]:
-        """Connected regions (8-neighbours) of the type's mapped cells, nearest first."""
+        """Connected regions (8-neighbours) of the type's mapped cells, nearest first (at equal distance, the
+        one whose first cell comes first in raster order)."""
         if object_type in self._clusters:
             return self._clusters[object_type]
         cells = self.presence(object_type)
         found: list[MapCluster] = []
-        if cells.any():
-            count, labels = cv2.connectedComponents(cells.view(np.uint8), connectivity=8)
+        rows, cols = np.flatnonzero(cells.any(axis=1)), np.flatnonzero(cells.any(axis=0))
+        if len(rows):
+            # Labelled within the cells' bounding box: a type covers a small part of the map.
+            i0, j0 = int(rows[0]), int(cols[0])
+            box = cells[i0 : int(rows[-1]) + 1, j0 : int(cols[-1]) + 1]
+            count, labels = cv2.connectedComponents(box.view(np.uint8), connectivity=8)
             frame = self.map.frame
             ai, aj = frame.world_to_cell(self.pose.x, self.pose.z)
             class_id = self.map.classes.id_of(object_type)
             lows, tops = self._bin_edges()
-            for ii, jj in _label_cells(labels, count):
+            for box_ii, box_jj in _label_cells(labels, count):
+                ii, jj = box_ii + i0, box_jj + j0
                 member = np.zeros(cells.shape, dtype=bool)
                 member[ii, jj] = True
                 xs = frame.origin_x + (ii + 0.5) * frame.cell_m
@@ -261,7 +267,7 @@ class SessionMapView:
                 top, low = float(tops[bins.max()]), float(lows[bins.max()])
                 centre_x, centre_z = float(xs.mean()), float(zs.mean())
                 found.append(MapCluster(member, ii, jj, xs, zs, centre_x, centre_z, nearest, top, low))
-        found.sort(key=lambda c: c.nearest_m)
+        found.sort(key=lambda c: (c.nearest_m, int(c.ii[0]), int(c.jj[0])))
         self._clusters[object_type] = found
         return found
 

@@ -129,17 +129,19 @@ def container_parts(
     edges = np.asarray([0.0, *inner, inner[-1] + 0.2])
     lows, highs = edges[:-1], edges[1:]  # [B] each
     holds = view.map.voxels[cluster.ii, cluster.jj] == class_id  # [N, B]
-    tile = tile_m or config.part_m
-    column = np.floor(cluster.xs / tile).astype(np.int64)  # [N] tile index along x
-    row = np.floor(cluster.zs / tile).astype(np.int64)  # [N] along z
+    side = tile_m or config.part_m
+    column = np.floor(cluster.xs / side).astype(np.int64)  # [N] tile index along x
+    row = np.floor(cluster.zs / side).astype(np.int64)  # [N] along z
     keys = (column - column.min()) * (int(row.max() - row.min()) + 1) + (row - row.min())  # [N] tile ids
+    _, tile, counts = np.unique(keys, return_inverse=True, return_counts=True)  # [N] tile of each cell, [T]
+    xs, zs = np.bincount(tile, cluster.xs) / counts, np.bincount(tile, cluster.zs) / counts  # [T] centroids
+    cell, bin_ = np.nonzero(holds)
+    tile_holds = np.zeros((len(counts), holds.shape[1]), dtype=bool)  # [T, B]
+    tile_holds[tile[cell], bin_] = True
     parts = []
-    for key in np.unique(keys):
-        member = keys == key
-        if int(member.sum()) < config.min_part_cells:
-            continue
-        x, z = float(cluster.xs[member].mean()), float(cluster.zs[member].mean())
-        bins = np.flatnonzero(holds[member].any(axis=0))
+    for t in np.flatnonzero(counts >= config.min_part_cells):
+        x, z = float(xs[t]), float(zs[t])
+        bins = np.flatnonzero(tile_holds[t])
         for band in (bins[lows[bins] < config.upper_from_m], bins[lows[bins] >= config.upper_from_m]):
             if len(band):
                 centre = float((lows[band] + highs[band]).mean() / 2)

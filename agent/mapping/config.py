@@ -9,6 +9,8 @@ from symbolic.thor import AGENT_RADIUS_M
 
 HEIGHT_QUANTUM_M = 0.01
 """Height edges must be whole centimetres: the map bins heights through a 1 cm lookup table."""
+MAX_TOP_EDGE_M = 2.54
+"""The lookup table has one byte-indexed entry per centimetre (255 of them at most)."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,8 @@ class MapConfig:
         for edge in edges:
             if abs(edge / HEIGHT_QUANTUM_M - round(edge / HEIGHT_QUANTUM_M)) > 1e-6 or edge <= 0:
                 raise ValueError(f"height_edges_m must be positive whole centimetres, got {edge}")
+        if edges[-1] > MAX_TOP_EDGE_M:
+            raise ValueError(f"height_edges_m must end at or below {MAX_TOP_EDGE_M} m, got {edges[-1]}")
         low, high = self.obstacle_band_m
         if low not in edges or high not in edges or low >= high:
             raise ValueError(

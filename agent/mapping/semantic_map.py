@@ -162,7 +162,7 @@ class SemanticMap:
             carve_depth = carve_depth[::stride, ::stride]
         hit_mask = usable & (depth <= cfg.max_depth_m)
         xs, ys, zs = depth_to_xyz(depth, cam, pose, hit_mask, stride=stride)  # [N] world metres each
-        codes = self._tables.hit_code[class_ids[hit_mask]]  # [N] uint16: priority << 8 | class
+        codes = _lookup(class_ids[hit_mask], self._tables.hit_code)  # [N] uint16: priority << 8 | class
         gi = np.floor(xs * np.float32(1 / cfg.cell_m)).astype(np.int32)  # [N] global cells
         gj = np.floor(zs * np.float32(1 / cfg.cell_m)).astype(np.int32)
         cam_i, cam_j = (math.floor(v / cfg.cell_m) for v in (pose.x, pose.z))
@@ -279,8 +279,9 @@ class SemanticMap:
         i0, i1, j0, j1 = box
         B = self.config.n_bins
         Zb = j1 - j0
-        table = self._tables.height_bin
-        bins = table[np.clip((ys * np.float32(1 / HEIGHT_QUANTUM_M)).astype(np.int32), 0, len(table) - 1)]
+        quanta = ys * np.float32(1 / HEIGHT_QUANTUM_M)  # [N] centimetres above the floor
+        np.clip(quanta, 0, self._tables.top_quantum, out=quanta)
+        bins = _lookup(quanta.astype(np.uint8), self._tables.height_bin)  # [N] uint8
         local = ((li - i0) * Zb + (lj - j0)) * B + bins  # [N] flat index into the box
         best = np.zeros((i1 - i0) * Zb * B, dtype=np.uint16)
         np.maximum.at(best, local, codes)
@@ -389,8 +390,12 @@ class SemanticMap:
 
     def obstacles(self) -> np.ndarray:
         """bool [X, Z]: something other than floor occupies the obstacle band (HLSM A.6.1's OBSTACLE)."""
-        band = self._by_bin()[self.config.obstacle_bins]  # [band bins, X, Z]
-        return self._view("obstacles", lambda: self._tables.blocks[band].any(axis=0))
+        return self._view("obstacles", self._compute_obstacles)
+
+    def _compute_obstacles(self) -> np.ndarray:
+        band = self._by_bin()[self.config.obstacle_bins]  # [band bins, X, Z], contiguous
+        blocked = _lookup(band.reshape(-1), self._tables.blocks.view(np.uint8))
+        return blocked.reshape(band.shape).max(axis=0).view(bool)
 
     def explored(self) -> np.ndarray:
         """bool [X, Z]: the column's ground is known: its floor-level voxel was hit, or something solid is.
@@ -487,13 +492,22 @@ class SemanticMap:
         return semantic_map
 
 
+def _lookup(values: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """table[values] for uint8 values [N] and a [256] table, as a flat array: cv2.LUT reads it several
+    times faster than numpy's fancy indexing (which the map's hot loops would otherwise spend on)."""
+    if not values.size:
+        return np.zeros(0, dtype=table.dtype)
+    return cv2.LUT(values.reshape(-1, 1), table).reshape(-1)
+
+
 @dataclass(frozen=True, eq=False)
 class _Tables:
     """Lookup tables derived once per (config, classes)."""
 
     hit_code: np.ndarray  # uint16 [256]: class id -> priority << 8 | stored class (0 -> unknown surface)
     blocks: np.ndarray  # bool [256]: voxel value -> occupies the obstacle band
-    height_bin: np.ndarray  # int64 [K]: centimetre index -> height bin
+    height_bin: np.ndarray  # uint8 [256]: centimetre index -> height bin (indices past the top unused)
+    top_quantum: int  # the highest centimetre index with its own entry (higher heights are clipped to it)
     carve_heights: np.ndarray  # float32 [B-1]: heights whose visibility carves bins 1..B-1
 
 
@@ -505,11 +519,13 @@ def _tables(config: MapConfig, classes: ClassIndex) -> _Tables:
     blocks[[0, UNOBSERVED_ID]] = False
     quanta = round(config.height_edges_m[-1] / HEIGHT_QUANTUM_M) + 1
     centres = (np.arange(quanta + 1) + 0.5) * HEIGHT_QUANTUM_M
-    height_bin = np.searchsorted(np.asarray(config.height_edges_m), centres, side="right")
+    assert quanta < 256, "MapConfig keeps height_edges_m under MAX_TOP_EDGE_M"
+    height_bin = np.zeros(256, dtype=np.uint8)
+    height_bin[: quanta + 1] = np.searchsorted(np.asarray(config.height_edges_m), centres, side="right")
     carve_heights = np.asarray(config.bin_bottoms_m(), dtype=np.float32)
     for table in (hit_code, blocks, height_bin, carve_heights):
         table.flags.writeable = False
-    return _Tables(hit_code, blocks, height_bin, carve_heights)
+    return _Tables(hit_code, blocks, height_bin, quanta, carve_heights)
 
 
 def _voxel_grid(X: int, Z: int, B: int) -> np.ndarray:

@@ -391,6 +391,13 @@ def test_snapshots_that_do_not_fit_are_refused() -> None:
         SemanticMap.from_bytes(other_table)
 
 
+def test_height_bins_the_lookup_table_cannot_hold_are_refused() -> None:
+    highest = MapConfig(height_edges_m=(0.05, 0.25, 1.0, 2.54), obstacle_band_m=(0.05, 1.0))
+    assert SemanticMap(_camera(), Pose(0.0, 0.0), highest).config.n_bins == 5
+    with pytest.raises(ValueError, match=r"must end at or below 2.54 m, got 2.6"):
+        MapConfig(height_edges_m=(0.05, 0.25, 1.0, 2.6), obstacle_band_m=(0.05, 1.0))
+
+
 def test_a_blocked_move_marks_the_cells_ahead() -> None:
     semantic_map = SemanticMap(_camera(), Pose(2.0, 2.0))
     semantic_map.record_collision(Pose(2.0, 2.0, 90.0), "Forward")
