@@ -125,7 +125,9 @@ class Approach(InstanceChoice):
     def _side_floor(self, body: MapCluster) -> list[tuple[int, np.ndarray, float]]:
         """The four sides of a piece of furniture (90° sectors around its centre): (standable known cells
         0.4-1.6 m from its centre, bool [X, Z] cells within ``front_half_angle_deg`` of that side's
-        direction and as far, the direction in degrees)."""
+        direction and as far, the direction in degrees); computed once a step for each body."""
+        if body in self._side_floors:
+            return self._side_floors[body]
         view = self.view
         frame = view.map.frame
         X, Z = view.map.shape
@@ -146,6 +148,7 @@ class Approach(InstanceChoice):
             cells = np.zeros((X, Z), dtype=bool)
             cells[window] = (off <= self.cfg.front_half_angle_deg) & (distance <= 1.6)
             sides.append((int((ring & (off <= 45.0)).sum()), cells, centre))
+        self._side_floors[body] = sides
         return sides
 
     def _front_record(self, body: MapCluster) -> tuple[float, float, float, float] | None:

@@ -179,6 +179,7 @@ class SessionMapView:
         self.usable = usable_pixels(self.distances, holding, click_config, held)  # [H, W]
         self._visible: dict[str, list[VisibleInstance]] = {}
         self._clusters: dict[str, list[MapCluster]] = {}
+        self._near_parts: dict[tuple[str, float, float, float], MapCluster | None] = {}
         self._standable: np.ndarray | None = None
         self._reachable_region: np.ndarray | None = None
 
@@ -271,6 +272,16 @@ class SessionMapView:
         self._clusters[object_type] = found
         return found
 
+    def nearest_part(self, object_type: str, x: float, z: float, radius_m: float) -> MapCluster | None:
+        """The type's mapped cells within ``radius_m`` of a world point, of the cluster whose such part
+        lies nearest it (one container among its neighbours); None when none is that near. The same
+        object for the same question all step, so what is derived from it can be cached too."""
+        key = (object_type, x, z, radius_m)
+        if key not in self._near_parts:
+            parts = [p for c in self.clusters(object_type) if (p := c.around(x, z, radius_m)) is not None]
+            self._near_parts[key] = min(parts, key=lambda c: math.hypot(c.x - x, c.z - z)) if parts else None
+        return self._near_parts[key]
+
     def in_sight(
         self, cells: np.ndarray, target: tuple[float, float, float], object_type: str, samples: int = 24
     ) -> np.ndarray:
@@ -353,6 +364,7 @@ class SessionMapView:
         """Drop what this step cached about a type (after a new ignored spot for it)."""
         self._visible.pop(object_type, None)
         self._clusters.pop(object_type, None)
+        self._near_parts = {key: part for key, part in self._near_parts.items() if key[0] != object_type}
 
     def _is_ignored(self, object_type: str, x: float, z: float) -> bool:
         return any(s.object_type == object_type and s.covers(x, z) for s in self._ignored)

@@ -726,8 +726,7 @@ class ContainerSearch(Approach):
 
     def _container_body(self, kind: str, near: Point) -> MapCluster | None:
         """The mapped cells of the container of type ``kind`` around a point of it (within a metre)."""
-        parts = [p for c in self.view.clusters(kind) if (p := c.around(near[0], near[2], 1.0)) is not None]
-        return min(parts, key=lambda c: math.hypot(c.x - near[0], c.z - near[2])) if parts else None
+        return self.view.nearest_part(kind, near[0], near[2], 1.0)
 
     def _extent_of(self, instance_id: int) -> Box | None:
         """The world box of an instance's visible pixels in this frame (every 4th pixel is enough)."""

@@ -15,7 +15,7 @@ import numpy as np
 
 from agent.executor.clicks import Click, ClickPurpose, VisibleInstance, choose_click
 from agent.executor.config import ExecutorConfig
-from agent.executor.mapview import IgnoredSpot, SessionMapView
+from agent.executor.mapview import IgnoredSpot, MapCluster, SessionMapView
 from agent.executor.state import Attempt, ExecutorState, PendingPurpose, Point
 from agent.executor.success import FrameDigest
 from agent.geometry import Pose
@@ -98,6 +98,7 @@ class StepContext(ABC):
         self.repairs: list[RepairEvent] = []
         self.question: str | None = None
         self.searches = 0  # search decisions made this step (``search.MAX_SEARCHES_PER_STEP``)
+        self._side_floors: dict[MapCluster, list[tuple[int, np.ndarray, float]]] = {}  # ``_side_floor``
 
     @abstractmethod
     def _search(self, obj: str, attempt: Attempt) -> Outcome:
