@@ -10,7 +10,7 @@ from symbolic.thor import AGENT_RADIUS_M
 HEIGHT_QUANTUM_M = 0.01
 """Height edges must be whole centimetres: the map bins heights through a 1 cm lookup table."""
 MAX_TOP_EDGE_M = 2.54
-"""The lookup table has one byte-indexed entry per centimetre (255 of them at most)."""
+"""The height lookup table is indexed by a byte, one entry per centimetre: 0-255 holds edges up to 2.54 m."""
 
 
 @dataclass(frozen=True)
