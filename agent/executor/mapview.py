@@ -182,6 +182,7 @@ class SessionMapView:
         self._near_parts: dict[tuple[str, float, float, float], MapCluster | None] = {}
         self._standable: np.ndarray | None = None
         self._reachable_region: np.ndarray | None = None
+        self._bin_edges: tuple[np.ndarray, np.ndarray] | None = None
 
     # ----- the frame ---------------------------------------------------------------------------------
     def class_mask(self, object_type: str) -> np.ndarray:
@@ -256,7 +257,7 @@ class SessionMapView:
             frame = self.map.frame
             ai, aj = frame.world_to_cell(self.pose.x, self.pose.z)
             class_id = self.map.classes.id_of(object_type)
-            lows, tops = self._bin_edges()
+            lows, tops = self.bin_edges()
             for box_ii, box_jj in _label_cells(labels, count):
                 ii, jj = box_ii + i0, box_jj + j0
                 member = np.zeros(cells.shape, dtype=bool)
@@ -342,10 +343,15 @@ class SessionMapView:
         nearest = float(np.sqrt((ii - i) ** 2 + (jj - j) ** 2).min()) * frame.cell_m
         return MapCluster(cells, ii, jj, xs, zs, point[0], point[2], nearest, point[1] + 0.1, point[1])
 
-    def _bin_edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """float [B] lower and upper edges of each height bin, metres (the open ends get 0 m and +0.2 m)."""
-        edges = self.map.config.height_edges_m
-        return np.asarray([0.0, *edges]), np.asarray([*edges, edges[-1] + 0.2])
+    def bin_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """float [B] lower and upper edges of each height bin, metres (the open ends get 0 m and +0.2 m);
+        read-only, made once per view."""
+        if self._bin_edges is None:
+            edges = self.map.config.height_edges_m
+            lows, highs = np.asarray([0.0, *edges]), np.asarray([*edges, edges[-1] + 0.2])
+            lows.flags.writeable = highs.flags.writeable = False
+            self._bin_edges = lows, highs
+        return self._bin_edges
 
     def reachable_region(self) -> np.ndarray:
         """bool [X, Z]: standable or unexplored cells connected to the agent (what FMM may plan through)."""

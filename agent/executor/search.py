@@ -125,9 +125,7 @@ def container_parts(
     its cells, each split into the height bands it occupies (a wall cabinet above a base cabinet are two
     containers)."""
     class_id = view.map.classes.id_of(object_type)
-    inner = view.map.config.height_edges_m
-    edges = np.asarray([0.0, *inner, inner[-1] + 0.2])
-    lows, highs = edges[:-1], edges[1:]  # [B] each
+    lows, highs = view.bin_edges()  # [B] each
     holds = view.map.voxels[cluster.ii, cluster.jj] == class_id  # [N, B]
     side = tile_m or config.part_m
     column = np.floor(cluster.xs / side).astype(np.int64)  # [N] tile index along x
