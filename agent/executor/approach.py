@@ -346,7 +346,15 @@ class Approach(InstanceChoice):
             where = f"({cluster.x:.2f}, {cluster.z:.2f})"
             reason = f"Ignore({obj}): not observed after {count} look-arounds near {where}"
             self.state.ignored.append(
-                IgnoredSpot(obj, cluster.x, cluster.z, self.cfg.ignore_radius_m, reason, subgoal_index=None)
+                IgnoredSpot(
+                    obj,
+                    cluster.x,
+                    cluster.z,
+                    self.cfg.ignore_radius_m,
+                    reason,
+                    subgoal_index=None,
+                    until_seen=True,
+                )
             )
             self.state.explore_attempts[obj] = 0
             self.events.append(reason)

@@ -119,6 +119,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
     def decide(self) -> Decision:
         self._judge_previous()
         self._note_containers()
+        self._lift_ignored_in_sight()
         limit = self._limit_reached()
         if limit is not None:
             return self._stop(limit)

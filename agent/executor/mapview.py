@@ -42,6 +42,10 @@ class IgnoredSpot:
     radius_m: float  # metres around (x, z)
     reason: str
     subgoal_index: int | None  # the subgoal it applies to; None for the whole episode
+    until_seen: bool = False
+    """Ruled out for not being seen there (``Approach``'s Ignore after look-arounds), so lifted once an
+    instance of its type shows within reach inside it (``StepContext._lift_ignored_in_sight``). A false
+    detection ruled out after a failed action (``_rule_out_click``) stays ruled out: it would show again."""
 
     def covers(self, x: float, z: float) -> bool:
         return math.hypot(x - self.x, z - self.z) <= self.radius_m
@@ -178,6 +182,7 @@ class SessionMapView:
             held = np.asarray(percept.class_ids == semantic_map.classes.id_of(held_type))
         self.usable = usable_pixels(self.distances, holding, click_config, held)  # [H, W]
         self._visible: dict[str, list[VisibleInstance]] = {}
+        self._in_frame: dict[str, list[VisibleInstance]] = {}
         self._clusters: dict[str, list[MapCluster]] = {}
         self._near_parts: dict[tuple[str, float, float, float], MapCluster | None] = {}
         self._standable: np.ndarray | None = None
@@ -192,7 +197,17 @@ class SessionMapView:
     def visible(self, object_type: str) -> list[VisibleInstance]:
         """The type's instances in this frame outside ignored spots, clickable and nearest first."""
         if object_type not in self._visible:
-            found = visible_instances(
+            self._visible[object_type] = [
+                v
+                for v in self.in_frame(object_type)
+                if not self._is_ignored(object_type, v.point[0], v.point[2])
+            ]
+        return self._visible[object_type]
+
+    def in_frame(self, object_type: str) -> list[VisibleInstance]:
+        """The type's instances in this frame, ignored spots or not (``visible`` leaves those out)."""
+        if object_type not in self._in_frame:
+            self._in_frame[object_type] = visible_instances(
                 self.class_mask(object_type),
                 self.percept.instances,
                 self.reach,
@@ -202,10 +217,7 @@ class SessionMapView:
                 self.pose,
                 self.click_config,
             )
-            self._visible[object_type] = [
-                v for v in found if not self._is_ignored(object_type, v.point[0], v.point[2])
-            ]
-        return self._visible[object_type]
+        return self._in_frame[object_type]
 
     def clickable(self, object_type: str) -> list[VisibleInstance]:
         """Visible instances with enough pixels within reach to click."""

@@ -616,9 +616,8 @@ class ContainerSearch(Approach):
                 visit.inspect_steps += 1
                 continue
             return Act(self._look_toward(horizon), f"search({obj}): look into the {kind} ({horizon:g}°)")
-        done_moving = not visit.hinted or visit.viewpoints >= self.cfg.search.inspect_viewpoints
-        if done_moving and not visit.moving:
-            return None  # other viewpoints only for the container the plan opened for X (X is in it)
+        if not visit.moving and not self._may_look_from_elsewhere(visit, kind, inside):
+            return None
         if not visit.moving:
             visit.viewpoints += 1
             visit.moving = True
@@ -660,6 +659,9 @@ class ContainerSearch(Approach):
                 goal = reachable & fresh & side
         if cone is not None and visit.side == front and cone.any():
             goal = cone
+        elif not visit.hinted:  # one that may not hold X is looked into from its front or not again
+            self.events.append(f"search({obj}): no place in front of the {kind} to look into it from")
+            return None
         past_door = goal & self._door_clear(kind, inside)
         goal = past_door if past_door.any() else goal
         if not goal.any():
@@ -685,6 +687,27 @@ class ContainerSearch(Approach):
         if turn is not None:
             return Act(turn, f"search({obj}): face the open {kind}")
         return self._look_into(obj, attempt, visit)
+
+    def _may_look_from_elsewhere(self, visit: ContainerVisit, kind: str, inside: Point) -> bool:
+        """Whether to look into an open container from another standing cell: the one the plan opened for X
+        (X is in it) from up to ``inspect_viewpoints`` of them; any other once, from in front, when it was
+        opened from beside its front (the way its door swung, ``_known_front``): from there its walls and
+        door hide the shelves (generated valid_unseen game 69, where the fridge was opened from 1.3 m beside
+        its front, the bread in it never seen, and the kitchen searched for 750 steps)."""
+        if visit.viewpoints >= self.cfg.search.inspect_viewpoints:
+            return False
+        if visit.hinted:
+            return True
+        if visit.viewpoints > 0:
+            return False
+        body = self._container_body(kind, inside)
+        front = self._known_front(body) if body is not None else None
+        if front is None:
+            return False
+        here = np.zeros(self.view.map.shape, dtype=bool)
+        here[self.view.map.world_to_cell(self.pose.x, self.pose.z)] = True
+        in_front = self._front_cone(here, self._front_middle(kind, inside), front, 0.0)
+        return not (in_front & self._door_clear(kind, inside)).any()
 
     def _front_middle(self, kind: str, clicked: Point) -> Point:
         """The middle of the front face of the container opened at ``clicked`` (a point on its face or

@@ -148,6 +148,28 @@ class StepContext(ABC):
         self.events.append(reason)
         self.view.forget(obj)
 
+    def _lift_ignored_in_sight(self) -> None:
+        """Lift every spot ruled out for not being seen (``IgnoredSpot.until_seen``) where an instance of its
+        type now shows within reach. The lettuce mapped in a fridge that was then closed was not seen from
+        around the fridge and was ignored; when the search opened the fridge, it lay in plain sight and the
+        agent searched the kitchen for 400 more steps (generated valid_unseen game 45)."""
+        ignored = self.state.ignored
+        lifted = [
+            spot
+            for spot in ignored
+            if spot.until_seen
+            and any(
+                v.clickable and spot.covers(v.point[0], v.point[2])
+                for v in self.view.in_frame(spot.object_type)
+            )
+        ]
+        if not lifted:
+            return
+        ignored[:] = [spot for spot in ignored if spot not in lifted]
+        for spot in lifted:
+            self.events.append(f"the {spot.object_type} at ({spot.x:.2f}, {spot.z:.2f}) is in sight again")
+            self.view.forget(spot.object_type)
+
     def _click_on(self, chosen: VisibleInstance, attempt: Attempt, purpose: ClickPurpose) -> Click | None:
         view = self.view
         avoid = attempt.avoided_pixels(chosen.instance_id, self.pose, view.percept.persistent_ids)

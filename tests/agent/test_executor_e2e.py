@@ -437,3 +437,39 @@ def test_the_bowl_in_hand_goes_into_the_microwave_whose_door_swung_sideways(clie
     as within reach (only the held bowl's near pixels are left out) and stand before its face, though its
     door swung sideways when opened (generated valid_unseen N Cooked Slices game 32, once a timeout)."""
     _solves_generated_game(client, 32, "Cook 3 slice(s) of Potato and serve in a Bowl.", max_steps=450)
+
+
+def _fetches_from_generated_game(
+    client: TestClient, index: int, plan: str, thing: str, max_steps: int
+) -> None:
+    """Generated valid_unseen game ``index``'s kitchen with ``plan``: the agent says it is done holding a
+    ``thing``."""
+    episode = generated_episode("valid_unseen", index, DEFAULT_CAMERA)
+
+    run = drive(client, episode.world, plan, max_steps=max_steps)
+
+    held = run.sim.world.held_object()
+    assert run.last["done"], run.last
+    assert held is not None and held.object_type == thing, held
+
+
+def test_the_bread_in_a_fridge_opened_from_beside_it_is_looked_for_from_in_front(client: TestClient) -> None:
+    """ "Navigate Bread" with the bread in a shut fridge the plan does not open: the search opens the fridge
+    from 1.3 m beside its front, where its walls and door hide the shelves, so it looks in once more from in
+    front before closing it (generated valid_unseen Sandwich game 69, where the bread was never seen and the
+    kitchen was searched until the step limit)."""
+    _fetches_from_generated_game(client, 69, "Navigate Bread, Pickup Bread", "Bread", max_steps=300)
+
+
+def test_a_lettuce_ignored_while_its_fridge_was_shut_is_taken_once_the_fridge_is_open(
+    client: TestClient,
+) -> None:
+    """The lettuce seen in the fridge opened for the bread is looked for after the fridge is shut, is not
+    seen from around it and is ignored; when the search opens the fridge again, the lettuce in sight within
+    reach lifts the ignore (generated valid_unseen Sandwich game 45, where it stayed ignored in plain sight
+    and the kitchen was searched for 400 more steps)."""
+    plan = (
+        "Navigate Fridge, Open Fridge, Navigate Bread, Pickup Bread, Navigate Fridge, Close Fridge, "
+        "Navigate CounterTop, Place CounterTop, Navigate Lettuce, Pickup Lettuce"
+    )
+    _fetches_from_generated_game(client, 45, plan, "Lettuce", max_steps=400)
