@@ -74,6 +74,13 @@ FRONT_CONE_DEG = 35.0
 """Degrees either side of a container's facing within which it is opened and looked into: from the side,
 its own walls and its swung door hide the inside."""
 
+TALL_CONTAINER_M = 1.2
+"""Metres: an opened container seen this high or more is a tall one (a fridge is 1.8 m, a cabinet under
+0.9 m), whose inside its walls hide from beside it."""
+BESIDE_DEG = 60.0
+"""Degrees off a container's front beyond which it was opened from beside it: its walls hide the inside,
+which a search then looks into once more from in front (``_may_look_from_elsewhere``)."""
+
 LATTICE_HALF_DIAGONAL_M = GRID_STEP_M * math.sqrt(2.0) / 2.0
 """Metres: a viewpoint goal grown by this holds a lattice node, however few map cells it had (a patch of
 known floor 0.15 m wide may hold none, and the navigator then finds it unreachable). Grown only then: a
@@ -690,24 +697,32 @@ class ContainerSearch(Approach):
 
     def _may_look_from_elsewhere(self, visit: ContainerVisit, kind: str, inside: Point) -> bool:
         """Whether to look into an open container from another standing cell: the one the plan opened for X
-        (X is in it) from up to ``inspect_viewpoints`` of them; any other once, from in front, when it was
-        opened from beside its front (the way its door swung, ``_known_front``): from there its walls and
-        door hide the shelves (generated valid_unseen game 69, where the fridge was opened from 1.3 m beside
-        its front, the bread in it never seen, and the kitchen searched for 750 steps)."""
+        (X is in it) from up to ``inspect_viewpoints`` of them; any other once, from in front, when it is a
+        tall one (seen ``TALL_CONTAINER_M`` high or more: a fridge, whose deep shelves its walls hide) opened
+        from beside it, more than ``BESIDE_DEG`` off the way its side-hinged door swung (``_known_front``).
+        In generated valid_unseen game 69 the fridge was opened from 1.3 m beside its front, the bread in it
+        never seen, and the kitchen searched for 750 steps. A cabinet shows its inside from wider angles,
+        and the front a row of cabinets seems to open toward is often wrong: a second look at each cost
+        games 4 and 86 their searches."""
         if visit.viewpoints >= self.cfg.search.inspect_viewpoints:
             return False
         if visit.hinted:
             return True
-        if visit.viewpoints > 0:
+        if (
+            visit.viewpoints > 0
+            or visit.extent is None
+            or visit.extent[1][1] - visit.extent[0][1] < TALL_CONTAINER_M
+        ):
             return False
         body = self._container_body(kind, inside)
         front = self._known_front(body) if body is not None else None
-        if front is None:
+        record = self._front_record(body) if body is not None else None
+        if front is None or record is None or abs(record[3]) < DOOR_ASIDE_M:
             return False
-        here = np.zeros(self.view.map.shape, dtype=bool)
-        here[self.view.map.world_to_cell(self.pose.x, self.pose.z)] = True
-        in_front = self._front_cone(here, self._front_middle(kind, inside), front, 0.0)
-        return not (in_front & self._door_clear(kind, inside)).any()
+        x, _, z = self._front_middle(kind, inside)
+        bearing = math.degrees(math.atan2(self.pose.x - x, self.pose.z - z))  # 0 toward +z, 90 toward +x
+        off = abs((bearing - front + 180.0) % 360.0 - 180.0)
+        return off > BESIDE_DEG
 
     def _front_middle(self, kind: str, clicked: Point) -> Point:
         """The middle of the front face of the container opened at ``clicked`` (a point on its face or
