@@ -44,8 +44,9 @@ class IgnoredSpot:
     subgoal_index: int | None  # the subgoal it applies to; None for the whole episode
     until_seen: bool = False
     """Ruled out for not being seen there (``Approach``'s Ignore after look-arounds), so lifted once an
-    instance of its type shows within reach inside it (``StepContext._lift_ignored_in_sight``). A false
-    detection ruled out after a failed action (``_rule_out_click``) stays ruled out: it would show again."""
+    instance of its type shows within reach inside it under true segmentation
+    (``StepContext._lift_ignored_in_sight``). A false detection ruled out after a failed action
+    (``_rule_out_click``) stays ruled out: it would show again."""
 
     def covers(self, x: float, z: float) -> bool:
         return math.hypot(x - self.x, z - self.z) <= self.radius_m

@@ -152,7 +152,13 @@ class StepContext(ABC):
         """Lift every spot ruled out for not being seen (``IgnoredSpot.until_seen``) where an instance of its
         type now shows within reach. The lettuce mapped in a fridge that was then closed was not seen from
         around the fridge and was ignored; when the search opened the fridge, it lay in plain sight and the
-        agent searched the kitchen for 400 more steps (generated valid_unseen game 45)."""
+        agent searched the kitchen for 400 more steps (generated valid_unseen game 45).
+
+        True segmentation only: learned detections flicker from frame to frame, so one frame showing the
+        thing where four look-arounds did not is no evidence, and lifting on it sent the agent back and forth
+        to a plate it could not reach for 300 steps (learned perception, generated valid_unseen game 10)."""
+        if not self.view.percept.persistent_ids:
+            return
         ignored = self.state.ignored
         lifted = [
             spot

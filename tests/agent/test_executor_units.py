@@ -13,7 +13,7 @@ from executor_support import kitchen, observation, simulator
 from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
 from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
 from agent.executor.looks import StainConfig, looks, stained_share
-from agent.executor.mapview import SessionMapView
+from agent.executor.mapview import IgnoredSpot, SessionMapView
 from agent.executor.replay import holding_before
 from agent.executor.state import Attempt, FailedClick
 from agent.executor.success import instance_colour
@@ -685,6 +685,63 @@ def test_with_learned_segmentation_an_x_put_down_but_not_recognised_is_picked_up
         percept.depth, percept.depth_valid, percept.class_ids, unrecognised, {counter_id: "CounterTop"}
     )
     assert _decide_pickup_of_put_down_tomato(oracle, obs, where).action != "Pickup"
+
+
+def _decide_pickup_with_tomatoes_ignored(
+    percept: Percept, obs: Observation, tomatoes: tuple[WorldObject, ...]
+) -> tuple[Decision, list[IgnoredSpot]]:
+    """The executor's first decision for "Pickup Tomato" when the tomatoes in view lie in spots ruled out for
+    not being seen there (``IgnoredSpot.until_seen``), and the spots still ruled out after it."""
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    assert obs.pose is not None
+    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
+    executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
+    for tomato in tomatoes:
+        x, _, z = tomato.center
+        executor.state.ignored.append(
+            IgnoredSpot("Tomato", x, z, 0.2, "not observed", subgoal_index=None, until_seen=True)
+        )
+    semantic_map = SemanticMap(camera, pose)
+    semantic_map.update(percept, pose)
+    view = SessionMapView(
+        semantic_map,
+        percept,
+        camera,
+        pose,
+        holding=False,
+        last_success=None,
+        ignored=executor.state.ignored,
+        explore_attempts={},
+        click_config=CONFIG,
+    )
+    inputs = StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None)
+    decision = executor.decide(inputs, parse_subgoals("Pickup Tomato", onto), 0)
+    return decision, executor.state.ignored
+
+
+def test_a_tomato_ruled_out_for_not_being_seen_is_taken_when_true_segmentation_shows_it_in_reach() -> None:
+    # An ignore set while a fridge was shut kept a lettuce ruled out after the fridge was opened and it lay in
+    # plain sight (generated valid_unseen game 45). With learned segmentation one frame's detection does not
+    # lift it: detections flicker, and lifting on one sent the agent back and forth to a plate for 300 steps.
+    sim, _, put_down, other, obs = _two_tomatoes_on_a_counter()
+    assert obs.instances is not None
+    learned = _learned_percept(obs, obs.instances)
+    oracle = Percept(learned.depth, learned.depth_valid, learned.class_ids, obs.instances, dict(obs.legend))
+
+    decision, ignored = _decide_pickup_with_tomatoes_ignored(oracle, obs, (put_down, other))
+    assert decision.action == "Pickup", decision
+    assert decision.x is not None and decision.y is not None
+    assert sim.resolve_click(decision.x, decision.y, "Pickup") in (put_down.object_id, other.object_id)
+    assert ignored == []
+
+    decision, ignored = _decide_pickup_with_tomatoes_ignored(learned, obs, (put_down, other))
+    assert decision.action != "Pickup", decision
+    assert len(ignored) == 2
 
 
 def _slice_in_a_toaster() -> tuple[Simulator, WorldObject, WorldObject, Observation]:
