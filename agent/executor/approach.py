@@ -32,6 +32,9 @@ FRONT_FLOOR_SHARE = 0.5
 """Share of the most open side's floor a remembered front needs to be believed (``_known_front``)."""
 HEADING_KEEP_M = 0.3
 """Metres: a mapped instance this close to the one walked toward last step is that one."""
+VANISHED_NEAR_M = 1.5
+"""Metres: a mapped instance walked toward that is gone from the map this near counts as vanished (``choice.
+VANISHED_BEFORE_SKIPPED``); farther off, small things drop in and out of the map from frame to frame."""
 WHERE_PUT_CLICKS = 2
 """Pickups per subgoal aimed at the spot where the agent put X down, when X is not recognised there."""
 WHERE_PUT_LIFT_M = 0.03
@@ -69,6 +72,17 @@ class Approach(InstanceChoice):
             hx, hz = attempt.heading_for
             kept = [c for c in clusters if math.hypot(c.x - hx, c.z - hz) <= HEADING_KEEP_M]
             clusters = kept + [c for c in clusters if c not in kept]
+            if not kept:
+                attempt.heading_for = None
+                near = math.hypot(hx - self.pose.x, hz - self.pose.z) <= VANISHED_NEAR_M
+                mapped = any(
+                    math.hypot(c.x - hx, c.z - hz) <= HEADING_KEEP_M for c in self.view.clusters(obj)
+                )
+                if near and not mapped:  # gone from the map itself, not passed over (unreachable, finished)
+                    attempt.vanished.append((hx, hz))
+                    self.events.append(
+                        f"the {obj} walked toward at ({hx:.2f}, {hz:.2f}) is gone from the map"
+                    )
         for cluster in clusters:
             front = self._front_cells(cluster) if self._needs_inside(obj) else None
             goal = self._goal_cells(cluster, attempt, obj, front)

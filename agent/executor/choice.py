@@ -26,6 +26,10 @@ ROW_SWITCH_GAP_M = 0.08
 """Metres: a switch this close to one switched is that one (stove knobs stand 0.12 m or more apart)."""
 ROW_REACH_M = 1.2
 """Metres: the switches of one row (a stove's knobs) lie within this of each other."""
+VANISHED_BEFORE_SKIPPED = 2
+"""Times a mapped X may vanish from the map as the agent walks to it before it is passed over for the rest of
+the subgoal: a cup in a cabinet, mapped through the open door from 1 m and hidden by the door from 0.5 m,
+drew the agent to it and back to its search every 8 steps for 300 steps (generated valid_unseen game 67)."""
 
 PROCESSING_PLACES: frozenset[str] = frozenset(
     {"SinkBasin", "Sink", "BathtubBasin", "Bathtub", "Microwave", "Toaster", "StoveBurner", "CoffeeMachine"}
@@ -149,6 +153,9 @@ class InstanceChoice(StepContext):
         """Where the instance this subgoal means should be: where the agent last dealt with it (or with
         what it controls, or with the receptacle it is believed in). Spread-out furniture has none: any
         part of a counter will do."""
+        stored = self._storing_into(obj)
+        if stored is not None:
+            return stored[0][0], stored[0][2]
         if obj in SPREAD_OUT_RECEPTACLES:
             return None
         where = self.state.memory.where
@@ -161,6 +168,17 @@ class InstanceChoice(StepContext):
                 x, _, z = where[name]
                 return x, z
         return None
+
+    def _storing_into(self, obj: str) -> tuple[Point, int | None] | None:
+        """The closed container (cabinet, drawer) the plan last put something into, when the plan's next
+        Pickup or Place puts what the agent holds into one of that type too: "put all the cups in one
+        cabinet" means that one (``Memory.stored_in``). Without this the agent took the nearest cabinet,
+        the one it had just found the second cup in (generated valid_unseen game 67)."""
+        stored = self.state.memory.stored_in.get(obj)
+        if stored is None:
+            return None
+        upcoming = next((s for s in self._upcoming_actions() if s.action in (A.PICKUP, A.PLACE)), None)
+        return stored if upcoming == Subgoal(A.PLACE, obj) else None
 
     def _last_placed_into(self, obj: str) -> list[str]:
         """For a switch (StoveKnob), what the plan last put something into: the knob meant is the one of
@@ -324,7 +342,11 @@ class InstanceChoice(StepContext):
             return self._the_one_dealt_with(obj, remembered, candidates)
         if not candidates:
             return None
-        opened = self.state.memory.instance.get(obj) if obj in self.onto.enclosing else None
+        stored = self._storing_into(obj)
+        if stored is not None:  # the cabinet the last thing went into; learned ids: the anchor decides
+            opened = stored[1] if persistent else None
+        else:
+            opened = self.state.memory.instance.get(obj) if obj in self.onto.enclosing else None
         same = self._the_one_dealt_with(obj, opened, candidates) if opened is not None else None
         if same is not None:
             return same  # the cabinet it opened, for "Place Cabinet" and "Close Cabinet"
@@ -404,8 +426,9 @@ class InstanceChoice(StepContext):
         return self.state.memory.instance.get(obj)
 
     def _clusters(self, obj: str, attempt: Attempt) -> list[MapCluster]:
-        """Mapped instances of ``obj`` not found unreachable this subgoal, in order of preference; with an
-        anchor, a cluster holding it is cut down to the part around it (one cabinet of a row)."""
+        """Mapped instances of ``obj`` not found unreachable (nor vanished on the way twice) this subgoal, in
+        order of preference; with an anchor, a cluster holding it is cut down to the part around it (one
+        cabinet of a row)."""
         anchor = self._anchor(obj)
         box = self._hint_box(obj, attempt)
         clusters = []
@@ -420,6 +443,9 @@ class InstanceChoice(StepContext):
             if cluster is None:
                 continue
             if any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
+                continue
+            gone = sum(1 for x, z in attempt.vanished if math.hypot(cluster.x - x, cluster.z - z) < 0.3)
+            if gone >= VANISHED_BEFORE_SKIPPED:
                 continue
             if self._switched((cluster.x, 0.0, cluster.z), attempt.switched):
                 continue

@@ -370,12 +370,16 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
                 self.events.append(f"{subgoal}: another {obj} than the one put down at ({x:.2f}, {z:.2f})")
             elif subgoal.action is A.NAVIGATE and placed:
                 self._pin_put_down(obj)
-            if subgoal.action is A.PICKUP and self._just_put_down(obj) and self._means_another(obj):
-                attempt.any_instance = True  # "Place Bowl, Pickup LettuceSliced": the next slice
+            went = self._just_put_down(obj) or obj in memory.placed_into
+            if subgoal.action is A.PICKUP and placed and went and self._means_another(obj):
+                # "Place Bowl, Pickup LettuceSliced": the next slice; "Open Cabinet, Pickup Cup, ... Place
+                # Cabinet" after a cup went into a cabinet: the next cup, not the one put away
+                attempt.any_instance = True
                 memory.placed_into.pop(obj, None)
                 if obj in memory.where:
                     x, _, z = memory.where[obj]
                     self._done_with(obj, x, z)
+                    self.events.append(f"{subgoal}: another {obj} than the one put at ({x:.2f}, {z:.2f})")
         return attempt
 
     def _done_with(self, obj: str, x: float, z: float) -> None:
@@ -402,6 +406,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             if subgoal.action is A.PLACE and belief.held is not None:
                 memory.where[belief.held] = point
                 memory.placed_into.setdefault(belief.held, []).append(obj)
+                if obj in self.onto.enclosing:
+                    memory.stored_in[obj] = (point, instance_id)
             sliced = self.onto.get(obj).sliced_into
             if subgoal.action is A.SLICE and sliced is not None:
                 memory.where[sliced] = point

@@ -132,6 +132,10 @@ class Memory:
     placed_into: dict[str, list[str]] = field(default_factory=dict)
     """Type -> receptacle types the instance of it the agent handles was put into since it first took it
     up: a plan that takes an X up to put it where this one already went means another X."""
+    stored_in: dict[str, tuple[Point, int | None]] = field(default_factory=dict)
+    """Closed container type (cabinet, drawer) -> (where, segmentation id) of the one the plan last put
+    something into: the plan's next "Place Cabinet" means that one ("put all the cups in one cabinet"),
+    not the nearest, which may be the one the next cup was just taken out of."""
 
 
 @dataclass
@@ -199,6 +203,7 @@ class Attempt:
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
     unreachable: list[Spot] = field(default_factory=list)  # mapped clusters the navigator could not reach
     heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
+    vanished: list[Spot] = field(default_factory=list)  # where one walked toward was gone from the map
     glanced: list[Spot] = field(default_factory=list)  # standing cells it pitched toward a seen X from
     destination_looks: int = 0  # looks at the destination without seeing the target, this visit
     look_sweep: list[float] = field(default_factory=list)  # horizons still to try at the destination

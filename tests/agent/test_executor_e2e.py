@@ -473,3 +473,24 @@ def test_a_lettuce_ignored_while_its_fridge_was_shut_is_taken_once_the_fridge_is
         "Navigate CounterTop, Place CounterTop, Navigate Lettuce, Pickup Lettuce"
     )
     _fetches_from_generated_game(client, 45, plan, "Lettuce", max_steps=400)
+
+
+def test_all_the_cups_go_into_the_one_cabinet_the_first_went_into(client: TestClient) -> None:
+    """ "Put all the drinkware in one cabinet" (generated valid_unseen game 67, the expert's plan): each
+    "Place Cabinet" means the cabinet the first mug went into, not the nearest one (the agent put the second
+    cup back into the cabinet it had just found it in); and the last cup, taken out while a cup it put away
+    shows through the door from afar and not from near, is found without walking to and fro for 300 steps."""
+    episode = generated_episode("valid_unseen", 67, DEFAULT_CAMERA)
+    plan = ", ".join(f"{s.action.value} {s.obj}" for s in episode.future_subgoals)
+
+    before = {o.object_id: o.parent_id for kind in ("Mug", "Cup") for o in episode.world.of_type(kind)}
+
+    run = drive(client, episode.world.copy(), plan, max_steps=700)
+
+    assert run.last["done"], run.last
+    world = run.sim.world
+    moved = [o for kind in ("Mug", "Cup") for o in world.of_type(kind) if o.parent_id != before[o.object_id]]
+    parents = {o.parent_id for o in moved}
+    assert len(moved) >= 3 and len(parents) == 1, [(o.object_id, o.parent_id) for o in moved]
+    (parent,) = parents
+    assert parent is not None and parent.startswith("Cabinet"), parent
