@@ -692,35 +692,21 @@ def _decide_pickup_with_tomatoes_ignored(
 ) -> tuple[Decision, list[IgnoredSpot]]:
     """The executor's first decision for "Pickup Tomato" when the tomatoes in view lie in spots ruled out for
     not being seen there (``IgnoredSpot.until_seen``), and the spots still ruled out after it."""
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
     from symbolic.subgoals import parse_subgoals
 
-    assert obs.pose is not None
-    onto, camera, pose = load_ontology(), Camera(300, 300, 90.0), obs.pose
+    onto = load_ontology()
     executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
     for tomato in tomatoes:
         x, _, z = tomato.center
         executor.state.ignored.append(
             IgnoredSpot("Tomato", x, z, 0.2, "not observed", subgoal_index=None, until_seen=True)
         )
-    semantic_map = SemanticMap(camera, pose)
-    semantic_map.update(percept, pose)
-    view = SessionMapView(
-        semantic_map,
-        percept,
-        camera,
-        pose,
-        holding=False,
-        last_success=None,
-        ignored=executor.state.ignored,
-        explore_attempts={},
-        click_config=CONFIG,
-    )
-    inputs = StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None)
-    decision = executor.decide(inputs, parse_subgoals("Pickup Tomato", onto), 0)
+    plan = list(parse_subgoals("Pickup Tomato", onto))
+    (decision,) = _decide_while_nothing_changes(executor, obs, percept, plan, steps=1)
     return decision, executor.state.ignored
 
 
