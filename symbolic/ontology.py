@@ -200,6 +200,8 @@ class Ontology:
         objects resolve to the basin ("sink" -> SinkBasin), because AI2-THOR puts objects in the SinkBasin;
         otherwise "sink" is the Sink itself.
         """
+        if purpose == "any" and name in self._info:
+            return name  # a canonical name (every segmentation legend entry, every step): no parsing
         phrase = _words(name)
         found = self._lookup(phrase, purpose) if phrase else None
         if found is None:

@@ -66,6 +66,9 @@ STAND_OFF_M = 0.75
 """Metres (horizontally) from a low container's face to where it is opened and looked into from. The
 counter top hides what lies inside from a camera at 1.58 m standing closer: a mug 0.38 m behind the face of
 a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight must pass under the top)."""
+SLIDING_TYPES: frozenset[str] = frozenset({"Drawer"})
+"""Containers that slide straight out (AI2-THOR's drawers): no door swings to one side of their front, and
+the cells a drawer adds lie in front of its middle wherever the map's row of drawers has its centre."""
 DOOR_ASIDE_M = 0.15
 """Metres across the front a swung door's cells must lie from the middle to count as a side-hinged door."""
 DOOR_CLEARANCE_M = 0.1
@@ -697,9 +700,11 @@ class ContainerSearch(Approach):
 
     def _may_look_from_elsewhere(self, visit: ContainerVisit, kind: str, inside: Point) -> bool:
         """Whether to look into an open container from another standing cell: the one the plan opened for X
-        (X is in it) from up to ``inspect_viewpoints`` of them; any other once, from in front, when it is a
-        tall one (seen ``TALL_CONTAINER_M`` high or more: a fridge, whose deep shelves its walls hide) opened
-        from beside it, more than ``BESIDE_DEG`` off the way its side-hinged door swung (``_known_front``).
+        (X is in it) from up to ``inspect_viewpoints`` of them; any other with a side-hinged door once, from
+        in front: when the agent stands behind the door's line (``_door_clear``: a wall cabinet opened from
+        beside its hinge, whose door hid the mug on its shelf in generated valid_unseen game 38), or when it
+        is a tall one (seen ``TALL_CONTAINER_M`` high or more: a fridge, whose deep shelves its walls hide)
+        opened from beside it, more than ``BESIDE_DEG`` off the way its door swung (``_known_front``).
         In generated valid_unseen game 69 the fridge was opened from 1.3 m beside its front, the bread in it
         never seen, and the kitchen searched for 750 steps. A cabinet shows its inside from wider angles,
         and the front a row of cabinets seems to open toward is often wrong: a second look at each cost
@@ -708,16 +713,16 @@ class ContainerSearch(Approach):
             return False
         if visit.hinted:
             return True
-        if (
-            visit.viewpoints > 0
-            or visit.extent is None
-            or visit.extent[1][1] - visit.extent[0][1] < TALL_CONTAINER_M
-        ):
+        if visit.viewpoints > 0 or visit.extent is None:
             return False
         body = self._container_body(kind, inside)
         front = self._known_front(body) if body is not None else None
         record = self._front_record(body) if body is not None else None
         if front is None or record is None or abs(record[3]) < DOOR_ASIDE_M:
+            return False
+        if not self._door_clear(kind, inside)[self.view.map.world_to_cell(self.pose.x, self.pose.z)]:
+            return True  # its door, swung toward the agent, stands between the agent and its inside
+        if visit.extent[1][1] - visit.extent[0][1] < TALL_CONTAINER_M:
             return False
         x, _, z = self._front_middle(kind, inside)
         bearing = math.degrees(math.atan2(self.pose.x - x, self.pose.z - z))  # 0 toward +z, 90 toward +x
@@ -793,6 +798,9 @@ class ContainerSearch(Approach):
         nx, nz = (n1 * x1 - n0 * x0) / (n1 - n0), (n1 * z1 - n0 * z0) / (n1 - n0)
         bearing = math.degrees(math.atan2(nx - x0, nz - z0))  # 0 toward +z, 90 toward +x
         side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
+        if pending.box is not None and kind not in SLIDING_TYPES:  # across the front, the middle of the
+            (lo_x, _, lo_z), (hi_x, _, hi_z) = pending.box  # instance opened, not of the row the map merged
+            x0, z0 = (x0, (lo_z + hi_z) / 2.0) if abs(side) == 90.0 else ((lo_x + hi_x) / 2.0, z0)
         fronts = self.state.memory.fronts
         fronts[:] = [f for f in fronts if math.hypot(f[0] - x0, f[1] - z0) > FRONT_SAME_M]
         door = nz - z0 if abs(side) == 90.0 else nx - x0  # across the front: where the door swung out

@@ -432,6 +432,15 @@ def test_the_mug_in_a_base_cabinet_is_looked_for_from_in_front_of_it(client: Tes
     _solves_generated_game(client, 61, "Prepare coffee in a clean mug.")
 
 
+def test_the_mug_behind_a_wall_cabinet_door_swung_toward_the_agent_is_looked_for_past_the_door(
+    client: TestClient,
+) -> None:
+    """A wall cabinet opened from beside its hinge: its door stands between the agent and the dirty mug on
+    its shelf, so the agent looks in once more from the far side of the door's line (generated valid_unseen
+    Clean All X game 38, where it closed the cabinet unseen and searched the kitchen until it gave up)."""
+    _solves_generated_game(client, 38, "Clean all the Mugs.", max_steps=300)
+
+
 def test_the_bowl_in_hand_goes_into_the_microwave_whose_door_swung_sideways(client: TestClient) -> None:
     """Holding the bowl of cooked slices 0.5 m before the microwave, the agent must count the microwave
     as within reach (only the held bowl's near pixels are left out) and stand before its face, though its
