@@ -67,8 +67,9 @@ STAND_OFF_M = 0.75
 counter top hides what lies inside from a camera at 1.58 m standing closer: a mug 0.38 m behind the face of
 a cabinet 0.85 m high shows from 0.78 m and not from 0.53 m (the line of sight must pass under the top)."""
 SLIDING_TYPES: frozenset[str] = frozenset({"Drawer"})
-"""Containers that slide straight out (AI2-THOR's drawers): no door swings to one side of their front, and
-the cells a drawer adds lie in front of its middle wherever the map's row of drawers has its centre."""
+"""Containers that slide straight out (AI2-THOR's drawers): no door swings to one side of their front. What
+opening one teaches keeps the middle of the map's row (``_learn_front``): measured from the drawer's own
+middle, its slide read as a door to one side, and the agent paced between viewpoints (generated game 82)."""
 DOOR_ASIDE_M = 0.15
 """Metres across the front a swung door's cells must lie from the middle to count as a side-hinged door."""
 DOOR_CLEARANCE_M = 0.1
@@ -731,8 +732,9 @@ class ContainerSearch(Approach):
 
     def _front_middle(self, kind: str, clicked: Point) -> Point:
         """The middle of the front face of the container opened at ``clicked`` (a point on its face or
-        door edge), at its height: across the front, the middle of what it covered before it opened
-        (``Memory.fronts``; the map keeps its swung door's cells); ``clicked`` when the front is unknown."""
+        door edge), at its height: across the front, the middle of the instance opened, or of the map cells
+        it covered before it opened (``Memory.fronts``; the map keeps its swung door's cells); ``clicked``
+        when the front is unknown."""
         body = self._container_body(kind, clicked)
         front = self._known_front(body) if body is not None else None
         record = self._front_record(body) if body is not None else None
@@ -786,7 +788,8 @@ class ContainerSearch(Approach):
 
     def _learn_front(self, kind: str, pending: Pending) -> None:
         """After an Open: the door swung out in front, so the container's cells grew that way; remember
-        the side (``Memory.fronts``) when they clearly did."""
+        the side (``Memory.fronts``) when they clearly did, with where across the front the door stands from
+        the middle of the instance clicked (seen when clicking, ``Pending.box``)."""
         if pending.before is None or pending.click is None:
             return
         after = self._footprint(kind, pending.click.point)
@@ -798,8 +801,9 @@ class ContainerSearch(Approach):
         nx, nz = (n1 * x1 - n0 * x0) / (n1 - n0), (n1 * z1 - n0 * z0) / (n1 - n0)
         bearing = math.degrees(math.atan2(nx - x0, nz - z0))  # 0 toward +z, 90 toward +x
         side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
-        if pending.box is not None and kind not in SLIDING_TYPES:  # across the front, the middle of the
-            (lo_x, _, lo_z), (hi_x, _, hi_z) = pending.box  # instance opened, not of the row the map merged
+        if pending.box is not None and kind not in SLIDING_TYPES:
+            # across the front, the middle of the instance opened, not of the row the map merged it into
+            (lo_x, _, lo_z), (hi_x, _, hi_z) = pending.box
             x0, z0 = (x0, (lo_z + hi_z) / 2.0) if abs(side) == 90.0 else ((lo_x + hi_x) / 2.0, z0)
         fronts = self.state.memory.fronts
         fronts[:] = [f for f in fronts if math.hypot(f[0] - x0, f[1] - z0) > FRONT_SAME_M]
