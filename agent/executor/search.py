@@ -703,9 +703,11 @@ class ContainerSearch(Approach):
         """Whether to look into an open container from another standing cell: the one the plan opened for X
         (X is in it) from up to ``inspect_viewpoints`` of them; any other with a side-hinged door once, from
         in front: when the agent stands behind the door's line (``_door_clear``: a wall cabinet opened from
-        beside its hinge, whose door hid the mug on its shelf in generated valid_unseen game 38), or when it
-        is a tall one (seen ``TALL_CONTAINER_M`` high or more: a fridge, whose deep shelves its walls hide)
-        opened from beside it, more than ``BESIDE_DEG`` off the way its door swung (``_known_front``).
+        beside its hinge, whose door hid the mug on its shelf in generated valid_unseen game 38; under true
+        segmentation only, as with learned segmentation it cost game 20 of the 24 learned ones its success),
+        or when it is a tall one (seen ``TALL_CONTAINER_M`` high or more: a fridge, whose deep shelves its
+        walls hide) opened from beside it, more than ``BESIDE_DEG`` off the way its door swung
+        (``_known_front``).
         In generated valid_unseen game 69 the fridge was opened from 1.3 m beside its front, the bread in it
         never seen, and the kitchen searched for 750 steps. A cabinet shows its inside from wider angles,
         and the front a row of cabinets seems to open toward is often wrong: a second look at each cost
@@ -721,7 +723,8 @@ class ContainerSearch(Approach):
         record = self._front_record(body) if body is not None else None
         if front is None or record is None or abs(record[3]) < DOOR_ASIDE_M:
             return False
-        if not self._door_clear(kind, inside)[self.view.map.world_to_cell(self.pose.x, self.pose.z)]:
+        here = self.view.map.world_to_cell(self.pose.x, self.pose.z)
+        if self.view.percept.persistent_ids and not self._door_clear(kind, inside)[here]:
             return True  # its door, swung toward the agent, stands between the agent and its inside
         if visit.extent[1][1] - visit.extent[0][1] < TALL_CONTAINER_M:
             return False
@@ -801,8 +804,9 @@ class ContainerSearch(Approach):
         nx, nz = (n1 * x1 - n0 * x0) / (n1 - n0), (n1 * z1 - n0 * z0) / (n1 - n0)
         bearing = math.degrees(math.atan2(nx - x0, nz - z0))  # 0 toward +z, 90 toward +x
         side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
-        if pending.box is not None and kind not in SLIDING_TYPES:
+        if pending.box is not None and kind not in SLIDING_TYPES and self.view.percept.persistent_ids:
             # across the front, the middle of the instance opened, not of the row the map merged it into
+            # (true segmentation only: a learned instance's box is as wide as its pixels happen to be)
             (lo_x, _, lo_z), (hi_x, _, hi_z) = pending.box
             x0, z0 = (x0, (lo_z + hi_z) / 2.0) if abs(side) == 90.0 else ((lo_x + hi_x) / 2.0, z0)
         fronts = self.state.memory.fronts
