@@ -792,7 +792,7 @@ class ContainerSearch(Approach):
     def _learn_front(self, kind: str, pending: Pending) -> None:
         """After an Open: the door swung out in front, so the container's cells grew that way; remember
         the side (``Memory.fronts``) when they clearly did, with where across the front the door stands from
-        the middle of the instance clicked (seen when clicking, ``Pending.box``)."""
+        the middle of the instance clicked (seen when clicking, ``Pending.box``; under true segmentation)."""
         if pending.before is None or pending.click is None:
             return
         after = self._footprint(kind, pending.click.point)
@@ -806,7 +806,7 @@ class ContainerSearch(Approach):
         side = SIDE_DIRECTIONS[round(bearing / 90.0) % 4]
         if pending.box is not None and kind not in SLIDING_TYPES and self.view.percept.persistent_ids:
             # across the front, the middle of the instance opened, not of the row the map merged it into
-            # (true segmentation only: a learned instance's box is as wide as its pixels happen to be)
+            # (true segmentation only, as is the second look past a door, ``_may_look_from_elsewhere``)
             (lo_x, _, lo_z), (hi_x, _, hi_z) = pending.box
             x0, z0 = (x0, (lo_z + hi_z) / 2.0) if abs(side) == 90.0 else ((lo_x + hi_x) / 2.0, z0)
         fronts = self.state.memory.fronts
