@@ -17,7 +17,7 @@ import numpy as np
 from agent.executor.choice import InstanceChoice
 from agent.executor.clicks import Click
 from agent.executor.mapview import IgnoredSpot, MapCluster
-from agent.executor.state import Attempt
+from agent.executor.state import Attempt, Point
 from agent.executor.step import Act, Done, Outcome
 from agent.geometry import project_points
 from agent.mapping import GridFrame
@@ -59,7 +59,10 @@ class Approach(InstanceChoice):
         where = self.state.memory.where.get(obj)
         source = self.state.memory.source.get(obj)
         if self._remembered(obj, attempt) is not None and where is not None:
-            clusters = [self.view.spot_cluster(where, self.cfg.part_radius_m / 2)]
+            clusters = [
+                *self._drifted(obj, where, attempt),
+                self.view.spot_cluster(where, self.cfg.part_radius_m / 2),
+            ]
         elif (
             source is not None
             and not attempt.tried_source
@@ -112,6 +115,16 @@ class Approach(InstanceChoice):
             attempt.unreachable.append((cluster.x, cluster.z))
             self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
         return self._search(obj, attempt)
+
+    def _drifted(self, obj: str, where: Point, attempt: Attempt) -> list[MapCluster]:
+        """Under learned perception, the mapped X within ``put_drift_m`` of where the agent put an X down,
+        nearest first: it may rest off the spot clicked (in the middle of a sink whose rim was clicked),
+        and walking to the spot would face past it. With the simulator's ids the X itself is tracked."""
+        if self.view.percept.persistent_ids:
+            return []
+        x, _, z = where
+        parts = [p for c in self._clusters(obj, attempt) if (p := c.around(x, z, self.cfg.put_drift_m))]
+        return sorted(parts, key=lambda p: p.distance_to(x, z))
 
     def _navigating_to_pick_up(self, obj: str) -> bool:
         """Whether this subgoal is Navigate(X) and the plan's next action on anything is Pickup(X)."""

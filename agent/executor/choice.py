@@ -387,13 +387,17 @@ class InstanceChoice(StepContext):
     ) -> VisibleInstance | None:
         """The candidate that is the X the agent last dealt with (``Memory.instance``, a pin): by its id when
         ids are the simulator's; else by nearness to where the agent last acted on or put down an X
-        (``Memory.where``), as learned perception numbers its instances afresh every frame."""
+        (``Memory.where``), as learned perception numbers its instances afresh every frame. An X the agent
+        put down may rest up to ``put_drift_m`` from the spot clicked (the harness, like AI2-THOR, moves it
+        to free room on the receptacle); the nearest within that is taken when none is nearer."""
         if self.view.percept.persistent_ids:
             return next((v for v in candidates if v.instance_id == instance_id), None)
         where = self.state.memory.where.get(obj)
         if where is None:
             return None
         near = [v for v in candidates if v.distance_to(where[0], where[2]) <= self.cfg.done_radius_m]
+        if not near and obj in self.state.belief.placed:  # it may have come to rest off the clicked spot
+            near = [v for v in candidates if v.distance_to(where[0], where[2]) <= self.cfg.put_drift_m]
         return min(near, key=lambda v: v.distance_to(where[0], where[2]), default=None)
 
     @staticmethod

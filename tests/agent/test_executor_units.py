@@ -614,8 +614,21 @@ def _two_tomatoes_on_a_counter() -> tuple[Simulator, WorldObject, WorldObject, W
 def _decide_pickup_of_put_down_tomato(
     percept: Percept, obs: Observation, where: tuple[float, float, float], instance_id: int | None = None
 ) -> Decision:
-    """The executor's first decision for "Pickup Tomato" when the agent itself put a tomato down at
-    ``where`` (its id then ``instance_id``), seeing ``percept``."""
+    """The executor's first decision for "Pickup Tomato" when the agent itself put a tomato down on a counter
+    at ``where`` (its id then ``instance_id``), seeing ``percept``."""
+    return _decide_pickup_of_put_down("Tomato", "CounterTop", percept, obs, where, instance_id)
+
+
+def _decide_pickup_of_put_down(
+    obj: str,
+    receptacle: str,
+    percept: Percept,
+    obs: Observation,
+    where: tuple[float, float, float],
+    instance_id: int | None = None,
+) -> Decision:
+    """The executor's first decision for "Pickup <obj>" when the agent itself put an ``obj`` into
+    ``receptacle``, clicking at ``where`` (its id then ``instance_id``), seeing ``percept``."""
     from agent.executor import Executor, StepInputs
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
@@ -628,15 +641,15 @@ def _decide_pickup_of_put_down_tomato(
     semantic_map.update(percept, pose)
     view = _first_view(semantic_map, percept, camera, pose)
     belief = BeliefState.initial(onto)
-    belief.placed.add("Tomato")
-    belief.inside["Tomato"] = "CounterTop"
+    belief.placed.add(obj)
+    belief.inside[obj] = receptacle
     executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
     if instance_id is not None:
-        executor.state.memory.instance["Tomato"] = instance_id
-    executor.state.memory.where["Tomato"] = where  # where the Place click put it
+        executor.state.memory.instance[obj] = instance_id
+    executor.state.memory.where[obj] = where  # where the Place click put it
     return executor.decide(
         StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None),
-        parse_subgoals("Pickup Tomato", onto),
+        parse_subgoals(f"Pickup {obj}", onto),
         0,
     )
 
@@ -685,6 +698,45 @@ def test_with_learned_segmentation_an_x_put_down_but_not_recognised_is_picked_up
         percept.depth, percept.depth_valid, percept.class_ids, unrecognised, {counter_id: "CounterTop"}
     )
     assert _decide_pickup_of_put_down_tomato(oracle, obs, where).action != "Pickup"
+
+
+@pytest.mark.parametrize("seed", [0, 4])
+def test_with_learned_ids_a_bowl_put_into_a_sink_by_its_rim_is_picked_up_where_it_came_to_rest(
+    seed: int,
+) -> None:
+    # A Place click on a sink's rim puts the bowl in the basin's free middle (the harness, like AI2-THOR,
+    # moves it to room on the receptacle), half a metre from the spot the agent remembers: in generated
+    # valid_unseen game 0 the agent then looked elsewhere for a bowl until the step limit.
+    from harness.physics import move_with_contents, resting_center
+    from harness.worldgen import generate_kitchen
+
+    world = generate_kitchen(seed, require=(("Bowl", 1),))
+    sink, bowl = world.of_type("SinkBasin")[0], world.of_type("Bowl")[0]
+    _stand_facing(simulator(world), sink)
+    agent = world.agent
+    (x0, _, z0), (x1, _, z1) = sink.min_corner, sink.max_corner
+    near_x, near_z = (
+        min((x0, x1), key=lambda x: abs(agent.x - x)),
+        min((z0, z1), key=lambda z: abs(agent.z - z)),
+    )
+    rim = (near_x, sink.top, near_z)  # the corner of the sink nearest the agent, where the click landed
+    spot = resting_center(world, bowl, sink, near=rim)
+    assert spot is not None
+    move_with_contents(world, bowl, spot[0])
+    bowl.parent_id = sink.object_id
+    sim = simulator(world)
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.instances is not None
+    assert (obs.instances == world.instance_ids[bowl.object_id]).sum() > 30, "the bowl is in view"
+    assert math.dist((near_x, near_z), (bowl.center[0], bowl.center[2])) > 0.4, "it rests off the spot"
+
+    taken_as = world.instance_ids[bowl.object_id]  # its id when taken up: learned ids say nothing a frame on
+    percept = _learned_percept(obs, obs.instances)
+    decision = _decide_pickup_of_put_down("Bowl", "SinkBasin", percept, obs, rim, instance_id=taken_as)
+
+    assert decision.action == "Pickup", decision
+    assert decision.x is not None and decision.y is not None
+    assert sim.resolve_click(decision.x, decision.y, "Pickup") == bowl.object_id
 
 
 def _decide_pickup_with_tomatoes_ignored(
