@@ -294,6 +294,19 @@ class Approach(InstanceChoice):
             attempt.where_put_clicks += 1
         return click
 
+    def _from_own_slot(self, obj: str, click: Click) -> bool:
+        """Whether a Pickup of X clicked where the agent stood an X in a slot (a slice in a toaster): only
+        what the agent put there fits, so the hand holds X, however the network reads it (a toasted slice
+        read as lettuce was put down again and a raw slice taken to the plate: generated valid_unseen game
+        21)."""
+        where = self.state.memory.where.get(obj)
+        slotted = any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())[-1:])
+        return (
+            slotted
+            and where is not None
+            and math.hypot(click.point[0] - where[0], click.point[2] - where[2]) <= self.cfg.done_radius_m
+        )
+
     def _where_put_pixel(self, obj: str) -> Click | None:
         """The pixel where the spot the agent put X down shows, when it is in view, within reach and not
         hidden behind something nearer; for what stands in a slot (a slice in a toaster) the pixel just over

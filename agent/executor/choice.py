@@ -43,6 +43,9 @@ ON_TOP_SLACK_M = 0.05
 """Metres an object's height may fall short of the lower edge of a receptacle's top bin, still on it."""
 IN_DISH_M = 0.06
 """The same for a dish or pot: a potato or a slice beside a pot or plate is not in it."""
+STAIN_FRAGMENT_M = 0.2
+"""Metres: with learned segmentation, a piece of a dish this near a stained piece in the same view is the
+same dish (its rim, split off its stained middle) and is stained too; two dishes side by side lie farther."""
 WORK_SURFACES: frozenset[str] = frozenset({"CounterTop"})
 """Where plans set things down to work on them: an X already there is no worse an X to move there."""
 RESTING_PLACES: frozenset[str] = frozenset({"CounterTop", "DiningTable", "SideTable", "Shelf", "Cabinet"})
@@ -115,11 +118,16 @@ class InstanceChoice(StepContext):
         return seen != "unknown" and seen != wanted
 
     def _filled_by_agent(self, obj: str, x: float, z: float) -> bool:
-        """Whether this X is the one the agent filled (coffee, water) and put where it stands: what fills
-        it colours the stain cue. A mug full of the coffee just made looked dirty, so the agent passed it
-        over to carry it to the table and searched the kitchen for a clean one (Breakfast game 23)."""
+        """Whether this X is the one the agent filled (coffee, water) or put things on, where it stands:
+        what it holds colours the stain cue. A mug full of the coffee just made looked dirty, so the agent
+        passed it over to carry it to the table and searched the kitchen for a clean one (Breakfast game
+        23); with learned perception, a plate with two slices of toast on it looked dirty, and the lettuce
+        of the sandwich went onto the plate beside it (Sandwich game 21)."""
         where = self.state.memory.where.get(obj)
-        if obj not in self.state.belief.filled or where is None:
+        used = obj in self.state.belief.filled or any(
+            obj in into for into in self.state.memory.placed_into.values()
+        )
+        if not used or where is None:
             return False
         return math.hypot(where[0] - x, where[2] - z) <= self.cfg.done_radius_m
 
@@ -307,6 +315,8 @@ class InstanceChoice(StepContext):
                 fresh.append((v.point[0], v.point[2], verdict))
         if not fresh:
             return
+        if not self.view.percept.persistent_ids:
+            fresh = _stains_spread_to_fragments(fresh)
         records = self.state.memory.looks.setdefault(obj, [])
         radius = self.cfg.done_radius_m
         kept = [r for r in records if all(math.hypot(r[0] - x, r[1] - z) > radius for x, z, _ in fresh)]
@@ -467,3 +477,18 @@ class InstanceChoice(StepContext):
 def _xzy(point: Point) -> tuple[float, float, float]:
     """A world point's (x, z, y): where on the floor plan, then how high."""
     return point[0], point[2], point[1]
+
+
+def _stains_spread_to_fragments(fresh: list[tuple[float, float, Looks]]) -> list[tuple[float, float, Looks]]:
+    """One view's verdicts, every piece within ``STAIN_FRAGMENT_M`` of a stained piece stained too: learned
+    segmentation split a dirty plate into its stained middle and a clean-looking rim, and the agent served
+    the sandwich on the rim's plate (generated valid_unseen game 21)."""
+    stained = [(x, z) for x, z, verdict in fresh if verdict == "dirty"]
+    return [
+        (
+            x,
+            z,
+            "dirty" if any(math.hypot(x - sx, z - sz) <= STAIN_FRAGMENT_M for sx, sz in stained) else verdict,
+        )
+        for x, z, verdict in fresh
+    ]

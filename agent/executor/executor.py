@@ -253,7 +253,12 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         subgoal = self.plan[self.pointer]
         click = pending.click
         if success is not False:
-            if pending.action == "Pickup" and click is not None and not self.view.percept.persistent_ids:
+            if (
+                pending.action == "Pickup"
+                and click is not None
+                and not self.view.percept.persistent_ids
+                and not self._from_own_slot(subgoal.obj, click)
+            ):
                 looks_like = self._held_look(subgoal.obj)
                 if looks_like is not None:
                     self._wrong_pickup(subgoal, click, looks_like)
