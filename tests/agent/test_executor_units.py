@@ -869,6 +869,156 @@ def test_with_learned_segmentation_a_slice_put_into_a_toaster_is_picked_up_over_
     assert navigate.action == "Pickup", navigate  # here already: the Navigate is done where it was put
 
 
+def test_the_plate_the_agent_serves_on_is_not_passed_over_for_looking_dirty() -> None:
+    # What the agent put on a plate colours the stain cue (toast reads as stains): the lettuce of a sandwich
+    # went onto the clean plate beside the one the toast was on (generated valid_unseen game 21).
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from harness.physics import move_with_contents, resting_center
+    from harness.worldgen import generate_kitchen
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    world = generate_kitchen(3, require=(("Plate", 2),))
+    counter = world.of_type("CounterTop")[0]
+    _stand_facing(simulator(world), counter)
+    agent = world.agent
+    ahead = (math.sin(math.radians(agent.yaw)), math.cos(math.radians(agent.yaw)))
+    across = (ahead[1], -ahead[0])
+    serving, spare = world.of_type("Plate")[:2]
+    for plate, side in ((serving, -0.25), (spare, 0.25)):
+        near = (
+            agent.x + 0.5 * ahead[0] + side * across[0],
+            counter.top,
+            agent.z + 0.5 * ahead[1] + side * across[1],
+        )
+        spot = resting_center(world, plate, counter, near=near)
+        assert spot is not None
+        move_with_contents(world, plate, spot[0])
+        plate.parent_id = counter.object_id
+    serving.is_dirty = True  # it looks dirty, as the toast on it made it look
+    sim = simulator(world)
+    obs = observation(sim.observe(), sim.world.agent)
+    assert obs.instances is not None and obs.pose is not None
+    for plate in (serving, spare):
+        assert (obs.instances == world.instance_ids[plate.object_id]).sum() > 30, "both plates in view"
+    onto, camera = load_ontology(), Camera(300, 300, 90.0)
+    percept = Percept(
+        obs.depth,
+        obs.depth > 0,
+        _learned_percept(obs, obs.instances).class_ids,
+        obs.instances,
+        dict(obs.legend),
+    )
+    semantic_map = SemanticMap(camera, obs.pose)
+    semantic_map.update(percept, obs.pose)
+    belief = BeliefState.initial(onto)
+    belief.held = "LettuceSliced"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    executor.state.memory.where["Plate"] = (
+        serving.center[0],
+        serving.top,
+        serving.center[2],
+    )  # the toast's Place
+    executor.state.memory.placed_into["BreadSliced"] = ["Plate"]
+
+    decision = executor.decide(
+        StepInputs(
+            0,
+            obs.pose,
+            _first_view(semantic_map, percept, camera, obs.pose),
+            obs,
+            digest(obs, SuccessConfig()),
+            None,
+        ),
+        parse_subgoals("Place Plate", onto),
+        0,
+    )
+
+    assert decision.action == "Place", decision
+    assert decision.x is not None and decision.y is not None
+    assert sim.resolve_click(decision.x, decision.y, "Place") == serving.object_id
+
+
+def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_however_the_hand_reads() -> None:
+    # The network read a toasted slice held before the eye as lettuce: the agent put it down on the counter
+    # and served a raw slice instead (generated valid_unseen game 21). Only what the agent put in the slot
+    # fits there, so what comes out is that slice.
+    from executor_support import execute
+
+    from agent.classes import load_class_index
+    from agent.executor import Executor, StepInputs
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+    from symbolic.subgoals import parse_subgoals
+
+    sim, toaster, piece, obs = _slice_in_a_toaster()
+    assert obs.instances is not None and obs.pose is not None
+    onto, camera, classes = load_ontology(), Camera(300, 300, 90.0), load_class_index()
+    belief = BeliefState.initial(onto)
+    belief.placed.add("BreadSliced")
+    belief.inside["BreadSliced"] = "Toaster"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    memory = executor.state.memory
+    memory.instance["BreadSliced"], memory.placed_into["BreadSliced"] = 1, ["Toaster"]
+    memory.where["BreadSliced"] = (toaster.center[0], toaster.center[1], toaster.center[2])
+    plan = parse_subgoals("Pickup BreadSliced, Navigate Plate, Place Plate", onto)
+    semantic_map = SemanticMap(camera, obs.pose)
+
+    def step(index: int, observed: Observation, percept: Percept, holding: bool) -> Decision:
+        assert observed.pose is not None
+        semantic_map.update(percept, observed.pose)
+        last_success = None if index == 0 else True
+        view = SessionMapView(
+            semantic_map,
+            percept,
+            camera,
+            observed.pose,
+            holding=holding,
+            last_success=last_success,
+            ignored=[],
+            explore_attempts={},
+            click_config=CONFIG,
+        )
+        inputs = StepInputs(
+            index, observed.pose, view, observed, digest(observed, SuccessConfig()), last_success
+        )
+        return executor.decide(inputs, plan, 0)
+
+    pickup = step(0, obs, _learned_percept(obs, obs.instances), holding=False)
+    assert pickup.action == "Pickup" and pickup.x is not None and pickup.y is not None
+    assert execute(sim, "Pickup", pickup.x, pickup.y).success
+    after = observation(sim.observe(), sim.world.agent)
+    assert after.instances is not None
+    in_hand = after.instances == sim.world.instance_ids[piece.object_id]
+    assert in_hand.sum() > 100, "the slice is held before the eye"
+    misread = _learned_percept(after, after.instances)
+    misread.class_ids[in_hand] = classes.id_of("LettuceSliced")  # how the network read the toast
+
+    carried = step(1, after, misread, holding=True)
+
+    assert executor.state.belief.held == "BreadSliced"
+    assert carried.repairs == () and [str(s) for s in carried.plan[carried.pointer :]] == [
+        "Navigate Plate",
+        "Place Plate",
+    ], "the toast goes on to the plate, not down on the counter"
+
+
+def test_one_stained_piece_of_a_dish_stains_the_pieces_beside_it_but_not_the_dish_next_to_it() -> None:
+    # Learned segmentation split a dirty plate into its stained middle and a rim that looked clean; the
+    # sandwich went onto the rim's plate (generated valid_unseen game 21). A plate beside it stays clean.
+    from agent.executor.choice import STAIN_FRAGMENT_M, _stains_spread_to_fragments
+
+    middle, rim, neighbour = (0.49, -2.54, "dirty"), (0.50, -2.70, "clean"), (0.87, -2.58, "clean")
+    assert math.dist(middle[:2], rim[:2]) < STAIN_FRAGMENT_M < math.dist(middle[:2], neighbour[:2]) - 0.1
+
+    spread = _stains_spread_to_fragments([middle, rim, neighbour])
+
+    assert [verdict for _, _, verdict in spread] == ["dirty", "dirty", "clean"]
+
+
 # ----- what learned segmentation gets wrong ---------------------------------------------------------------
 
 
