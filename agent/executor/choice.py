@@ -112,12 +112,12 @@ class InstanceChoice(StepContext):
         if self._lies_at_destination(obj, x, z, y) not in (None, *WORK_SURFACES):
             return True
         wanted = self._wanted_look(obj)
-        if wanted is None or self._filled_by_agent(obj, x, z):
+        if wanted is None or self._used_by_agent(obj, x, z):
             return False
         seen = self._looks_at(obj, x, z)
         return seen != "unknown" and seen != wanted
 
-    def _filled_by_agent(self, obj: str, x: float, z: float) -> bool:
+    def _used_by_agent(self, obj: str, x: float, z: float) -> bool:
         """Whether this X is the one the agent filled (coffee, water) or put things on, where it stands:
         what it holds colours the stain cue. A mug full of the coffee just made looked dirty, so the agent
         passed it over to carry it to the table and searched the kitchen for a clean one (Breakfast game

@@ -579,30 +579,38 @@ def _learned_percept(obs: Observation, instances: np.ndarray) -> Percept:
 # ----- the instance the agent dealt with ----------------------------------------------------------------
 
 
-def _two_tomatoes_on_a_counter() -> tuple[Simulator, WorldObject, WorldObject, WorldObject, Observation]:
-    """A kitchen with the agent at a counter on which two tomatoes lie side by side, 0.5 m apart, both in
-    view: (simulator, counter, the tomato the agent put down, the other one, what the agent sees)."""
+def _two_side_by_side_on_a_counter(
+    kind: str, ahead_m: float
+) -> tuple[World, WorldObject, WorldObject, WorldObject]:
+    """A kitchen with the agent at its first counter and two ``kind``s on it ``ahead_m`` before the agent,
+    0.5 m apart side by side: (world, counter, the one on the left, the one on the right)."""
     from harness.physics import move_with_contents, resting_center
     from harness.worldgen import generate_kitchen
 
-    world = generate_kitchen(3, require=(("Tomato", 2),))
-    sim = simulator(world)
+    world = generate_kitchen(3, require=((kind, 2),))
     counter = world.of_type("CounterTop")[0]
-    _stand_facing(sim, counter)
-    put_down, other = world.of_type("Tomato")[:2]
-    agent = sim.world.agent
+    _stand_facing(simulator(world), counter)
+    agent = world.agent
     ahead = (math.sin(math.radians(agent.yaw)), math.cos(math.radians(agent.yaw)))
     across = (ahead[1], -ahead[0])
-    for thing, side in ((put_down, -0.25), (other, 0.25)):
+    left, right = world.of_type(kind)[:2]
+    for thing, side in ((left, -0.25), (right, 0.25)):
         near = (
-            agent.x + 0.45 * ahead[0] + side * across[0],
+            agent.x + ahead_m * ahead[0] + side * across[0],
             counter.top,
-            agent.z + 0.45 * ahead[1] + side * across[1],
+            agent.z + ahead_m * ahead[1] + side * across[1],
         )
         spot = resting_center(world, thing, counter, near=near)
         assert spot is not None
         move_with_contents(world, thing, spot[0])
         thing.parent_id = counter.object_id
+    return world, counter, left, right
+
+
+def _two_tomatoes_on_a_counter() -> tuple[Simulator, WorldObject, WorldObject, WorldObject, Observation]:
+    """A kitchen with the agent at a counter on which two tomatoes lie side by side, 0.5 m apart, both in
+    view: (simulator, counter, the tomato the agent put down, the other one, what the agent sees)."""
+    world, counter, put_down, other = _two_side_by_side_on_a_counter("Tomato", 0.45)
     sim = simulator(world)  # a simulator renders the world as it was given it
     obs = observation(sim.observe(), sim.world.agent)
     assert obs.depth is not None and obs.instances is not None and obs.pose is not None
@@ -874,29 +882,11 @@ def test_the_plate_the_agent_serves_on_is_not_passed_over_for_looking_dirty() ->
     # went onto the clean plate beside the one the toast was on (generated valid_unseen game 21).
     from agent.executor import Executor, StepInputs
     from agent.navigation import make_navigator
-    from harness.physics import move_with_contents, resting_center
-    from harness.worldgen import generate_kitchen
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
     from symbolic.subgoals import parse_subgoals
 
-    world = generate_kitchen(3, require=(("Plate", 2),))
-    counter = world.of_type("CounterTop")[0]
-    _stand_facing(simulator(world), counter)
-    agent = world.agent
-    ahead = (math.sin(math.radians(agent.yaw)), math.cos(math.radians(agent.yaw)))
-    across = (ahead[1], -ahead[0])
-    serving, spare = world.of_type("Plate")[:2]
-    for plate, side in ((serving, -0.25), (spare, 0.25)):
-        near = (
-            agent.x + 0.5 * ahead[0] + side * across[0],
-            counter.top,
-            agent.z + 0.5 * ahead[1] + side * across[1],
-        )
-        spot = resting_center(world, plate, counter, near=near)
-        assert spot is not None
-        move_with_contents(world, plate, spot[0])
-        plate.parent_id = counter.object_id
+    world, _, serving, spare = _two_side_by_side_on_a_counter("Plate", 0.5)
     serving.is_dirty = True  # it looks dirty, as the toast on it made it look
     sim = simulator(world)
     obs = observation(sim.observe(), sim.world.agent)
