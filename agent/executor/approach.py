@@ -60,7 +60,7 @@ class Approach(InstanceChoice):
         source = self.state.memory.source.get(obj)
         if self._remembered(obj, attempt) is not None and where is not None:
             clusters = [
-                *self._drifted(obj, where, attempt),
+                *self._drifted(where, clusters),
                 self.view.spot_cluster(where, self.cfg.part_radius_m / 2),
             ]
         elif (
@@ -116,14 +116,15 @@ class Approach(InstanceChoice):
             self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
         return self._search(obj, attempt)
 
-    def _drifted(self, obj: str, where: Point, attempt: Attempt) -> list[MapCluster]:
-        """Under learned perception, the mapped X within ``put_drift_m`` of where the agent put an X down,
-        nearest first: it may rest off the spot clicked (in the middle of a sink whose rim was clicked),
-        and walking to the spot would face past it. With the simulator's ids the X itself is tracked."""
+    def _drifted(self, where: Point, clusters: list[MapCluster]) -> list[MapCluster]:
+        """Under learned perception, the parts of the mapped X ``clusters`` within ``put_drift_m`` of where
+        the agent put an X down, nearest first: it may rest off the spot clicked (in the middle of a sink
+        whose rim was clicked), and walking to the spot would face past it. With the simulator's ids the X
+        itself is tracked."""
         if self.view.percept.persistent_ids:
             return []
         x, _, z = where
-        parts = [p for c in self._clusters(obj, attempt) if (p := c.around(x, z, self.cfg.put_drift_m))]
+        parts = [p for c in clusters if (p := c.around(x, z, self.cfg.put_drift_m))]
         return sorted(parts, key=lambda p: p.distance_to(x, z))
 
     def _navigating_to_pick_up(self, obj: str) -> bool:

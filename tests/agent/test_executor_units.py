@@ -532,15 +532,23 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
 # ----- remembered spots ---------------------------------------------------------------------------------
 
 
-def _first_view(semantic_map: SemanticMap, percept: Percept, camera: Camera, pose: Pose) -> SessionMapView:
-    """The executor's view of a session's first step: hands empty, nothing ignored or tried yet."""
+def _first_view(
+    semantic_map: SemanticMap,
+    percept: Percept,
+    camera: Camera,
+    pose: Pose,
+    holding: bool = False,
+    last_success: bool | None = None,
+) -> SessionMapView:
+    """The executor's view of a session's first step (hands empty unless ``holding``, no previous action
+    unless ``last_success``): nothing ignored or tried yet."""
     return SessionMapView(
         semantic_map,
         percept,
         camera,
         pose,
-        holding=False,
-        last_success=None,
+        holding=holding,
+        last_success=last_success,
         ignored=[],
         explore_attempts={},
         click_config=CONFIG,
@@ -961,17 +969,7 @@ def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_howeve
         assert observed.pose is not None
         semantic_map.update(percept, observed.pose)
         last_success = None if index == 0 else True
-        view = SessionMapView(
-            semantic_map,
-            percept,
-            camera,
-            observed.pose,
-            holding=holding,
-            last_success=last_success,
-            ignored=[],
-            explore_attempts={},
-            click_config=CONFIG,
-        )
+        view = _first_view(semantic_map, percept, camera, observed.pose, holding, last_success)
         inputs = StepInputs(
             index, observed.pose, view, observed, digest(observed, SuccessConfig()), last_success
         )
