@@ -35,8 +35,8 @@ HEADING_KEEP_M = 0.3
 VANISHED_NEAR_M = 1.5
 """Metres: a mapped instance walked toward that is gone from the map this near counts as vanished (``choice.
 VANISHED_BEFORE_SKIPPED``); farther off, small things drop in and out of the map from frame to frame."""
-WHERE_PUT_CLICKS = 2
-"""Pickups per subgoal aimed at the spot where the agent put X down, when X is not recognised there."""
+BLIND_CLICKS = 2
+"""Clicks a subgoal aimed at a remembered spot where the target is not recognised (``_click_remembered``)."""
 WHERE_PUT_LIFT_M = 0.03
 """Metres above the remembered spot (the receptacle's surface under X) that the click aims at."""
 WHERE_PUT_HIDDEN_M = 0.4
@@ -284,57 +284,92 @@ class Approach(InstanceChoice):
         options = self._horizons()
         return min(options, key=lambda h: abs(h - angle))
 
-    def _click_where_put(self, subgoal: Subgoal, attempt: Attempt) -> Click | None:
-        """Learned segmentation may not recognise an X the agent itself put down or sliced (a bowl under the
-        running tap reads as the sink basin), yet where it is is known (``Memory.where``): a Pickup of X
-        clicks where that spot shows (``_where_put_pixel``), at most ``WHERE_PUT_CLICKS`` times a subgoal."""
-        if subgoal.action is not A.PICKUP or attempt.where_put_clicks >= WHERE_PUT_CLICKS:
+    def _click_remembered(self, subgoal: Subgoal, attempt: Attempt) -> Click | None:
+        """Learned segmentation may not recognise what the agent itself changed, yet where it is is known: a
+        Pickup of an X the agent put down or sliced (a bowl under the running tap reads as the sink basin)
+        clicks where that spot shows (``_where_put_pixel``), a ToggleOff of a switch it turned on (a stove
+        knob glows once on) where that switch shows (``_switched_on_pixel``); at most ``BLIND_CLICKS`` such
+        clicks a subgoal, and one more for each switch of the row it switched."""
+        if attempt.blind_clicks >= BLIND_CLICKS + len(attempt.switched):
             return None
-        click = self._where_put_pixel(subgoal.obj)
+        click = None
+        if subgoal.action is A.PICKUP:
+            click = self._where_put_pixel(subgoal.obj)
+        elif subgoal.action is A.TOGGLE_OFF:
+            click = self._switched_on_pixel(subgoal.obj, attempt)
         if click is not None:
-            attempt.where_put_clicks += 1
+            attempt.blind_clicks += 1
         return click
 
-    def _from_own_slot(self, obj: str, click: Click) -> bool:
-        """Whether a Pickup of X clicked where the agent stood an X in a slot (a slice in a toaster): only
-        what the agent put there fits, so the hand holds X, however the network reads it (a toasted slice
-        read as lettuce was put down again and a raw slice taken to the plate: generated valid_unseen game
-        21)."""
+    def _from_own_spot(self, obj: str, click: Click) -> bool:
+        """Whether a Pickup of X clicked where the agent itself put an X, so that the hand holds X however
+        the network reads it: the click aimed at that spot because X was not recognised there
+        (``_where_put_pixel``; a network that misses X there misreads it in the hand too: a pot filled at
+        the tap, read as soap and then as lettuce, was put down and taken again until the step limit,
+        generated valid_unseen game 64), or it took X out of the slot X was stood in (a slice in a toaster:
+        only what the agent put there fits; a toasted slice read as lettuce was put down again and a raw
+        slice taken to the plate, game 21)."""
         where = self.state.memory.where.get(obj)
+        if where is None:
+            return False
+        if click.point == where:
+            return True
         slotted = any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())[-1:])
         return (
             slotted
-            and where is not None
             and math.hypot(click.point[0] - where[0], click.point[2] - where[2]) <= self.cfg.done_radius_m
         )
 
     def _where_put_pixel(self, obj: str) -> Click | None:
-        """The pixel where the spot the agent put X down shows, when it is in view, within reach and not
-        hidden behind something nearer; for what stands in a slot (a slice in a toaster) the pixel just over
-        the middle of the receptacle's top (``_over_slot``). With true segmentation an X that does not show
-        is not there, so this is for learned perception only."""
+        """The pixel where the spot the agent put X down shows (``_spot_pixel``); for what stands in a slot
+        (a slice in a toaster) the pixel just over the middle of the receptacle's top (``_over_slot``)."""
         where = self.state.memory.where.get(obj)
+        if where is None:
+            return None
+        pixel = self._spot_pixel((where[0], where[1] + WHERE_PUT_LIFT_M, where[2]))
+        if pixel is None:
+            return None
+        row, col = pixel
+        if any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())):
+            row, col = _over_slot(self.view.percept.instances, row, col)
+        return self._blind_click(row, col, where)
+
+    def _switched_on_pixel(self, obj: str, attempt: Attempt) -> Click | None:
+        """The pixel where a switch of the row the agent turned on and has not turned off this subgoal
+        shows (``_spot_pixel``), the first one in view."""
+        for _, point in self.state.memory.switched_on.get(obj, []):
+            if self._switched(point, attempt.switched):
+                continue
+            pixel = self._spot_pixel(point)
+            if pixel is not None:
+                return self._blind_click(*pixel, point)
+        return None
+
+    def _spot_pixel(self, spot: Point) -> tuple[int, int] | None:
+        """(row, column) where a remembered world spot shows, when it is in view, within reach and not
+        hidden behind something nearer. With true segmentation a thing that does not show is not there, so
+        this is for learned perception only."""
         percept = self.view.percept
         if (
-            where is None
-            or percept.persistent_ids
-            or math.hypot(where[0] - self.pose.x, where[2] - self.pose.z) > self.cfg.click.reach_m
+            percept.persistent_ids
+            or math.hypot(spot[0] - self.pose.x, spot[2] - self.pose.z) > self.cfg.click.reach_m
         ):
             return None
-        x, y, z = where
-        spot = np.array([[x, y + WHERE_PUT_LIFT_M, z]])
-        rows, cols, depths = project_points(spot, self.view.camera, self.pose)
+        rows, cols, depths = project_points(np.array([spot]), self.view.camera, self.pose)
         H, W = percept.depth.shape
         if not (0.0 <= rows[0] < H and 0.0 <= cols[0] < W):  # NaN (behind the camera) fails too
             return None
         row, col = int(rows[0]), int(cols[0])
         if percept.depth[row, col] < depths[0] - WHERE_PUT_HIDDEN_M:
             return None
-        if any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())):
-            row, col = _over_slot(percept.instances, row, col)
-        return Click(
-            row=row, col=col, x=col / W, y=row / H, instance_id=int(percept.instances[row, col]), point=where
-        )
+        return row, col
+
+    def _blind_click(self, row: int, col: int, spot: Point) -> Click:
+        """A click at a pixel chosen for a remembered spot, carrying the spot itself as its point (so that
+        ``_from_own_spot`` knows it for one)."""
+        instances = self.view.percept.instances
+        H, W = instances.shape
+        return Click(row=row, col=col, x=col / W, y=row / H, instance_id=int(instances[row, col]), point=spot)
 
     def _at_destination(self, obj: str, cluster: MapCluster, attempt: Attempt) -> Outcome:
         """Standing where X should be reachable, facing it, yet X is not clickable: pitch the camera toward

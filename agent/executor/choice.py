@@ -415,17 +415,26 @@ class InstanceChoice(StepContext):
         return any(math.hypot(point[0] - p[0], point[2] - p[2]) < ROW_SWITCH_GAP_M for _, p in switched)
 
     def _switches_left(self, subgoal: Subgoal, attempt: Attempt) -> int:
-        """How many switches of the row are still to switch this subgoal: to turn on, the mapped ones next
-        to those switched (a stove's knobs); to turn off, those the agent turned on."""
+        """How many switches of the row are still to switch this subgoal: to turn on, those next to the ones
+        switched (a stove's knobs), mapped or in this frame (learned segmentation finds a knob in a frame,
+        yet so few of its pixels that it never enters the map: the one knob turned on was taken for the
+        whole row, and it was another burner's, generated valid_unseen game 16); to turn off, those the
+        agent turned on."""
         if subgoal.action is A.TOGGLE_OFF:
             on = self.state.memory.switched_on.get(subgoal.obj, [])
             return sum(1 for _, p in on if not self._switched(p, attempt.switched))
         first = attempt.switched[0][1]
+        spots = [(c.x, c.z) for c in self.view.clusters(subgoal.obj)]
+        spots += [
+            (v.point[0], v.point[2])
+            for v in self.view.visible(subgoal.obj)
+            if all(v.distance_to(x, z) >= ROW_SWITCH_GAP_M for x, z in spots)
+        ]
         return sum(
             1
-            for c in self.view.clusters(subgoal.obj)
-            if c.distance_to(first[0], first[2]) <= ROW_REACH_M
-            and not self._switched((c.x, 0.0, c.z), attempt.switched)
+            for x, z in spots
+            if math.hypot(x - first[0], z - first[2]) <= ROW_REACH_M
+            and not self._switched((x, 0.0, z), attempt.switched)
         )
 
     def _remembered(self, obj: str, attempt: Attempt) -> int | None:

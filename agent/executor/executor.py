@@ -257,7 +257,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
                 pending.action == "Pickup"
                 and click is not None
                 and not self.view.percept.persistent_ids
-                and not self._from_own_slot(subgoal.obj, click)
+                and not self._from_own_spot(subgoal.obj, click)
             ):
                 looks_like = self._held_look(subgoal.obj)
                 if looks_like is not None:
@@ -348,8 +348,17 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         on = self.state.memory.switched_on.setdefault(obj, [])
         if subgoal.action is A.TOGGLE_ON and changed:
             on.append((click.instance_id, click.point))
-        if subgoal.action is A.TOGGLE_OFF:
-            on[:] = [item for item in on if item[0] != click.instance_id]
+        if subgoal.action is A.TOGGLE_OFF:  # learned ids are a frame's own: the spot tells which it was
+            persistent = self.view.percept.persistent_ids
+            on[:] = [
+                item
+                for item in on
+                if (
+                    item[0] != click.instance_id
+                    if persistent
+                    else not self._switched(item[1], [(0, click.point)])
+                )
+            ]
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
@@ -518,13 +527,14 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             click = self._click_on(chosen, attempt, purpose)
             if click is not None:
                 return Act(action, f"Interactive({action}, {obj})", purpose="plan", click=click)
-        where_put = self._click_where_put(subgoal, attempt)
-        if where_put is not None:
+        remembered = self._click_remembered(subgoal, attempt)
+        if remembered is not None:
+            where = "it was put down" if subgoal.action is A.PICKUP else "it was switched on"
             return Act(
                 action,
-                f"{action} {obj} where it was put down (not recognised there)",
+                f"{action} {obj} where {where} (not recognised there)",
                 purpose="plan",
-                click=where_put,
+                click=remembered,
             )
         return self._approach(obj, attempt)
 

@@ -221,7 +221,7 @@ class Attempt:
     switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
     # (stove knobs) switched this subgoal
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch
-    where_put_clicks: int = 0  # Pickups aimed at where the agent put the target down (``_click_where_put``)
+    blind_clicks: int = 0  # clicks aimed at a remembered spot of the target (``_click_remembered``)
 
     def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:
         """Failed clicks on an instance: by its id when ids persist across frames (the oracle's), else the

@@ -4,6 +4,7 @@ sent to the service (over FastAPI's TestClient) or to an AgentSession, each retu
 from __future__ import annotations
 
 import base64
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -13,9 +14,10 @@ from agent.geometry import Pose
 from agent.perception import Observation
 from harness.camera import CameraSpec
 from harness.client import FrameEncoding, observation_parts, pose_of
+from harness.physics import resting_center
 from harness.render import Frame
 from harness.simulator import ActionResult, Simulator
-from harness.world import AgentState, World
+from harness.world import AgentState, World, WorldObject
 from harness.worldgen import generate_kitchen
 from symbolic.thor import OBJECT_ACTIONS
 
@@ -114,3 +116,28 @@ def drive(
             break
         run.results.append(execute(run.sim, answer["action"], answer["x"], answer["y"]))
     return run
+
+
+def put(world: World, thing: WorldObject, holder: WorldObject) -> None:
+    """Rest ``thing`` in or on ``holder`` where there is room (the test fails if there is none)."""
+    spot = resting_center(world, thing, holder)
+    assert spot is not None, f"no room for {thing.object_id} in/on {holder.object_id}"
+    thing.center, thing.size = spot
+    thing.parent_id = holder.object_id
+
+
+def boiling_pot_on_a_burner_whose_knob_is_not_the_nearest() -> tuple[World, WorldObject]:
+    """Kitchen 0 with a pot of water holding a potato on a burner switched by a knob that is not the one
+    nearest to it (which knob heats which burner is not written on the stove, in AI2-THOR either)."""
+    world = generate_kitchen(0, require=(("Potato", 1), ("Pot", 1)))
+    knobs = world.of_type("StoveKnob")
+    burner = next(
+        b
+        for b in world.of_type("StoveBurner")
+        if min(knobs, key=lambda k: math.dist(k.center, b.center)).controls != b.object_id
+    )
+    pot, potato = world.of_type("Pot")[0], world.of_type("Potato")[0]
+    put(world, pot, burner)
+    put(world, potato, pot)
+    pot.liquid = "water"
+    return world, potato

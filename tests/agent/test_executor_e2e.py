@@ -7,7 +7,15 @@ import math
 from collections.abc import Iterator
 
 import pytest
-from executor_support import CAMERA, ENCLOSING, KITCHEN_SEED, drive, kitchen
+from executor_support import (
+    CAMERA,
+    ENCLOSING,
+    KITCHEN_SEED,
+    boiling_pot_on_a_burner_whose_knob_is_not_the_nearest,
+    drive,
+    kitchen,
+    put,
+)
 from fastapi.testclient import TestClient
 
 from app.main import create_app
@@ -148,32 +156,8 @@ def test_every_answer_names_the_rule_behind_it(client: TestClient) -> None:
     assert pickup["subgoal"] == "Pickup Bread"
 
 
-def _put(world: World, thing: WorldObject, holder: WorldObject) -> None:
-    spot = resting_center(world, thing, holder)
-    assert spot is not None, f"no room for {thing.object_id} in/on {holder.object_id}"
-    thing.center, thing.size = spot
-    thing.parent_id = holder.object_id
-
-
-def _boiling_pot_on_a_burner_whose_knob_is_not_the_nearest() -> tuple[World, WorldObject]:
-    """Kitchen 0 with a pot of water holding a potato on a burner switched by a knob that is not the one
-    nearest to it (which knob heats which burner is not written on the stove, in AI2-THOR either)."""
-    world = generate_kitchen(0, require=(("Potato", 1), ("Pot", 1)))
-    knobs = world.of_type("StoveKnob")
-    burner = next(
-        b
-        for b in world.of_type("StoveBurner")
-        if min(knobs, key=lambda k: math.dist(k.center, b.center)).controls != b.object_id
-    )
-    pot, potato = world.of_type("Pot")[0], world.of_type("Potato")[0]
-    _put(world, pot, burner)
-    _put(world, potato, pot)
-    pot.liquid = "water"
-    return world, potato
-
-
 def test_a_stove_knob_of_unknown_burner_is_found_by_switching_the_row(client: TestClient) -> None:
-    world, potato = _boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
+    world, potato = boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
 
     run = drive(client, world, "ToggleOn StoveKnob, ToggleOff StoveKnob")
 
@@ -189,7 +173,7 @@ def test_the_tomato_put_down_to_slice_is_the_one_sliced(client: TestClient) -> N
     first, second = world.of_type("Tomato")
     counter = world.of_type("CounterTop")[0]
     for thing in (first, second, world.of_type("Knife")[0]):
-        _put(world, thing, counter)  # side by side in the open: either tomato could be meant
+        put(world, thing, counter)  # side by side in the open: either tomato could be meant
     before = {t.object_id: t.center for t in (first, second)}
 
     run = drive(
@@ -209,7 +193,7 @@ def _put_near(world: World, thing: WorldObject, kind: str, to: WorldObject) -> N
     """Put ``thing`` on the ``kind`` nearest ``to`` that has room for it."""
     for holder in sorted(world.of_type(kind), key=lambda o: math.dist(o.center, to.center)):
         if resting_center(world, thing, holder) is not None:
-            _put(world, thing, holder)
+            put(world, thing, holder)
             return
     raise AssertionError(f"no {kind} has room for {thing.object_id}")
 
@@ -219,7 +203,7 @@ def test_open_microwave_then_pickup_plate_takes_the_plate_in_there(client: TestC
     world = generate_kitchen(KITCHEN_SEED, require=(("Plate", 2),))
     microwave = world.of_type("Microwave")[0]
     inside, outside = world.of_type("Plate")[:2]
-    _put(world, inside, microwave)
+    put(world, inside, microwave)
     _put_near(world, outside, "CounterTop", microwave)
 
     plan = "Navigate Microwave, Open Microwave, Navigate Plate, Pickup Plate"
@@ -235,8 +219,8 @@ def test_a_bowl_that_looks_dirty_is_passed_over_for_a_clean_one_to_serve_in(clie
     dirty, clean = world.of_type("Bowl")[:2]
     here = (world.agent.x, 0.9, world.agent.z)
     counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
-    _put(world, dirty, counters[0])
-    _put(world, clean, counters[-1])
+    put(world, dirty, counters[0])
+    put(world, clean, counters[-1])
     dirty.is_dirty, clean.is_dirty = True, False
     before = {b.object_id: b.center for b in (dirty, clean)}
 
@@ -261,7 +245,7 @@ def test_a_pan_goes_onto_a_burner_once_the_pot_standing_there_is_taken_off(clien
     pot, pan = world.of_type("Pot")[0], world.of_type("Pan")[0]
     for thing in list(world.children(burner.object_id)):
         _put_near(world, thing, "CounterTop", burner)
-    _put(world, pot, burner)
+    put(world, pot, burner)
     _put_near(world, pan, "CounterTop", burner)
 
     plan = "Navigate Pan, Pickup Pan, Navigate StoveBurner, Place StoveBurner"
@@ -309,8 +293,8 @@ def test_the_plate_washed_is_the_dirty_one_not_a_clean_one_nearer(client: TestCl
     clean, dirty = world.of_type("Plate")[:2]
     here = (world.agent.x, 0.9, world.agent.z)
     counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
-    _put(world, clean, counters[0])
-    _put(world, dirty, counters[-1])
+    put(world, clean, counters[0])
+    put(world, dirty, counters[-1])
     clean.is_dirty, dirty.is_dirty = False, True
 
     plan = (
@@ -351,7 +335,7 @@ def test_an_apple_already_on_the_plate_is_not_the_one_carried_there(client: Test
     plate = world.of_type("Plate")[0]
     on_plate, elsewhere = world.of_type("Apple")[:2]
     _put_near(world, plate, "CounterTop", counters[0])
-    _put(world, on_plate, plate)
+    put(world, on_plate, plate)
     _put_near(world, elsewhere, "CounterTop", counters[-1])
 
     run = drive(client, world, "Navigate Apple, Pickup Apple, Navigate Plate, Place Plate", max_steps=400)

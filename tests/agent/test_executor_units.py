@@ -4,11 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
-from executor_support import kitchen, observation, simulator
+from executor_support import (
+    KITCHEN_SEED,
+    boiling_pot_on_a_burner_whose_knob_is_not_the_nearest,
+    execute,
+    kitchen,
+    observation,
+    put,
+    simulator,
+)
 
 from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
 from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
@@ -23,6 +32,7 @@ from agent.perception import Observation, Percept
 from agent.session import FrameAlignment
 from harness.simulator import Simulator
 from harness.world import World, WorldObject
+from harness.worldgen import generate_kitchen
 
 if TYPE_CHECKING:
     from agent.executor import Decision, Executor
@@ -593,7 +603,6 @@ def _two_side_by_side_on_a_counter(
     """A kitchen with the agent at its first counter and two ``kind``s on it ``ahead_m`` before the agent,
     0.5 m apart side by side: (world, counter, the one on the left, the one on the right)."""
     from harness.physics import move_with_contents, resting_center
-    from harness.worldgen import generate_kitchen
 
     world = generate_kitchen(3, require=((kind, 2),))
     counter = world.of_type("CounterTop")[0]
@@ -724,7 +733,6 @@ def test_with_learned_ids_a_bowl_put_into_a_sink_by_its_rim_is_picked_up_where_i
     # moves it to room on the receptacle), half a metre from the spot the agent remembers: in generated
     # valid_unseen game 0 the agent then looked elsewhere for a bowl until the step limit.
     from harness.physics import move_with_contents, resting_center
-    from harness.worldgen import generate_kitchen
 
     world = generate_kitchen(seed, require=(("Bowl", 1),))
     sink, bowl = world.of_type("SinkBasin")[0], world.of_type("Bowl")[0]
@@ -802,7 +810,6 @@ def _slice_in_a_toaster() -> tuple[Simulator, WorldObject, WorldObject, Observat
     """A kitchen with a bread slice standing in a toaster and the agent at the toaster looking at it:
     (simulator, toaster, slice, what the agent sees)."""
     from harness.physics import move_with_contents, resting_center, slice_object
-    from harness.worldgen import generate_kitchen
     from symbolic.ontology import load_ontology
 
     world = generate_kitchen(3, require=(("Toaster", 1), ("Bread", 1)))
@@ -943,8 +950,6 @@ def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_howeve
     # The network read a toasted slice held before the eye as lettuce: the agent put it down on the counter
     # and served a raw slice instead (generated valid_unseen game 21). Only what the agent put in the slot
     # fits there, so what comes out is that slice.
-    from executor_support import execute
-
     from agent.classes import load_class_index
     from agent.executor import Executor, StepInputs
     from agent.navigation import make_navigator
@@ -1018,7 +1023,6 @@ def test_with_learned_segmentation_a_speck_of_x_in_reach_is_not_clicked_while_th
     from agent.classes import load_class_index
     from agent.executor import Executor, StepInputs
     from agent.navigation import make_navigator
-    from harness.worldgen import generate_kitchen
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
     from symbolic.subgoals import parse_subgoals
@@ -1270,3 +1274,128 @@ def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -
     with_inserted = [*after[:4], *parse_subgoals("Place CounterTop", onto), *after[4:]]
     assert _dropped(before, with_inserted) == before[:2]
     assert _dropped(before, [before[0], *before[3:]]) == before[1:3]
+
+
+def _drive_seeing(
+    sim: Simulator,
+    executor: Executor,
+    subgoals: str,
+    eyes: Callable[[Observation], tuple[Percept, Percept]],
+    max_steps: int,
+) -> list[Decision]:
+    """The executor driving the simulator through ``subgoals``, each frame seen through ``eyes`` (what
+    enters the map, what the view shows); the simulator tells whether each action succeeded, as a caller
+    that sends ``last_action_success`` does."""
+    from agent.executor import StepInputs
+    from symbolic.subgoals import parse_subgoals
+
+    camera = Camera(300, 300, 90.0)
+    plan, pointer = list(parse_subgoals(subgoals, executor.ontology)), 0
+    semantic_map: SemanticMap | None = None
+    decisions: list[Decision] = []
+    success: bool | None = None
+    for step in range(max_steps):
+        obs = observation(sim.observe(), sim.world.agent)
+        assert obs.pose is not None
+        mapped, seen = eyes(obs)
+        semantic_map = semantic_map or SemanticMap(camera, obs.pose)
+        semantic_map.update(mapped, obs.pose)
+        holding = sim.world.agent.held is not None
+        view = _first_view(semantic_map, seen, camera, obs.pose, holding, success)
+        view.ignored = executor.state.ignored
+        inputs = StepInputs(step, obs.pose, view, obs, digest(obs, SuccessConfig()), success)
+        decision = executor.decide(inputs, plan, pointer)
+        decisions.append(decision)
+        plan, pointer = list(decision.plan), decision.pointer
+        if decision.stop:
+            break
+        success = execute(sim, decision.action, decision.x, decision.y).success
+    return decisions
+
+
+def _unrecognised(percept: Percept, pixels: np.ndarray, read_as: int = 0) -> Percept:
+    """``percept`` with ``pixels`` read as class ``read_as`` (0: nothing, and no instance there)."""
+    class_ids, instances = percept.class_ids.copy(), percept.instances.copy()
+    class_ids[pixels] = read_as
+    if read_as == 0:
+        instances[pixels] = 0
+    return dataclasses.replace(percept, class_ids=class_ids, instances=instances)
+
+
+def test_with_learned_segmentation_a_stove_knob_row_is_switched_on_and_off_though_never_mapped() -> None:
+    # Learned segmentation found a knob in a frame, but never with enough pixels to map it, and read a knob
+    # that was on (it glows) as nothing: the one knob turned on was taken for the whole row, and it was
+    # another burner's; the ToggleOff then searched 160 steps for it (generated valid_unseen game 16).
+    from agent.classes import load_class_index
+    from agent.executor import Executor
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+
+    world, potato = boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
+    sim = simulator(world)
+    knobs = sorted(world.of_type("StoveKnob"), key=lambda k: k.center)
+    _stand_facing(sim, knobs[len(knobs) // 2])
+    knob_class = load_class_index().id_of("StoveKnob")
+
+    def eyes(obs: Observation) -> tuple[Percept, Percept]:
+        assert obs.instances is not None
+        percept = _learned_percept(obs, obs.instances)
+        for knob in sim.world.of_type("StoveKnob"):
+            if knob.is_toggled:
+                percept = _unrecognised(percept, obs.instances == sim.world.instance_ids[knob.object_id])
+        return _unrecognised(percept, percept.class_ids == knob_class), percept
+
+    first = eyes(observation(sim.observe(), sim.world.agent))[1]
+    assert len(np.unique(first.instances[first.class_ids == knob_class])) == len(knobs), "the row in view"
+    onto = load_ontology()
+    executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
+
+    decisions = _drive_seeing(sim, executor, "ToggleOn StoveKnob, ToggleOff StoveKnob", eyes, max_steps=40)
+
+    assert decisions[-1].plan_done, [d.reason for d in decisions]
+    assert sim.world.objects[potato.object_id].is_boiled
+    assert not any(knob.is_toggled for knob in sim.world.of_type("StoveKnob")), "all off again"
+    assert [d.action for d in decisions[:-1]] == ["ToggleOn"] * len(knobs) + ["ToggleOff"] * len(knobs)
+
+
+def test_with_learned_segmentation_a_pot_taken_where_the_agent_put_it_is_kept_however_it_looks() -> None:
+    # A pot filled at the tap read as the sink basin, so the Pickup clicked where the agent had put it; the
+    # network then read the pot in hand as soap, then as lettuce: the agent put it down and took it up again
+    # until the step limit (generated valid_unseen game 64).
+    from agent.classes import load_class_index
+    from agent.executor import Executor
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+
+    world = generate_kitchen(KITCHEN_SEED, require=(("Pot", 1),))
+    pot, basin = world.of_type("Pot")[0], world.of_type("SinkBasin")[0]
+    put(world, pot, basin)
+    pot.liquid = "water"
+    sim = simulator(world)
+    _stand_facing(sim, basin)
+    classes, pot_id = load_class_index(), world.instance_ids[pot.object_id]
+
+    def eyes(obs: Observation) -> tuple[Percept, Percept]:
+        assert obs.instances is not None
+        percept = _learned_percept(obs, obs.instances)
+        held = sim.world.agent.held is not None
+        read_as = classes.id_of("Lettuce" if held else "SinkBasin")
+        percept = _unrecognised(percept, obs.instances == pot_id, read_as)
+        return percept, percept
+
+    onto = load_ontology()
+    belief = BeliefState.initial(onto)
+    belief.placed.add("Pot")
+    belief.inside["Pot"] = "SinkBasin"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    executor.state.memory.instance["Pot"] = 1  # its id in the frame it was put down in
+    executor.state.memory.where["Pot"] = (pot.center[0], pot.bottom, pot.center[2])  # the Place click
+    executor.state.memory.placed_into["Pot"] = ["SinkBasin"]
+
+    decisions = _drive_seeing(sim, executor, "Pickup Pot", eyes, max_steps=6)
+
+    assert [d.action for d in decisions] == ["Pickup", "Stop"], [d.reason for d in decisions]
+    assert sim.world.agent.held == pot.object_id
+    assert executor.state.belief.held == "Pot" and decisions[-1].repairs == ()
