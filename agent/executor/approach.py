@@ -301,30 +301,27 @@ class Approach(InstanceChoice):
             attempt.blind_clicks += 1
         return click
 
-    def _from_own_spot(self, obj: str, click: Click) -> bool:
-        """Whether a Pickup of X clicked where the agent itself put an X, so that the hand holds X however
-        the network reads it: the click aimed at that spot because X was not recognised there
-        (``_where_put_pixel``; a network that misses X there misreads it in the hand too: a pot filled at
-        the tap, read as soap and then as lettuce, was put down and taken again until the step limit,
-        generated valid_unseen game 64), or it took X out of the slot X was stood in (a slice in a toaster:
-        only what the agent put there fits; a toasted slice read as lettuce was put down again and a raw
-        slice taken to the plate, game 21)."""
+    def _from_own_slot(self, obj: str, click: Click) -> bool:
+        """Whether a Pickup of X clicked where the agent stood an X in a slot (a slice in a toaster): only
+        what the agent put there fits, so the hand holds X, however the network reads it (a toasted slice
+        read as lettuce was put down again and a raw slice taken to the plate: generated valid_unseen game
+        21)."""
         where = self.state.memory.where.get(obj)
-        if where is None:
-            return False
-        if click.point == where:
-            return True
         slotted = any(r in SLOT_RECEPTACLES for r in self.state.memory.placed_into.get(obj, ())[-1:])
         return (
             slotted
+            and where is not None
             and math.hypot(click.point[0] - where[0], click.point[2] - where[2]) <= self.cfg.done_radius_m
         )
 
     def _where_put_pixel(self, obj: str) -> Click | None:
         """The pixel where the spot the agent put X down shows (``_spot_pixel``); for what stands in a slot
-        (a slice in a toaster) the pixel just over the middle of the receptacle's top (``_over_slot``)."""
+        (a slice in a toaster) the pixel just over the middle of the receptacle's top (``_over_slot``). Not
+        once the spot is ruled out for X: what a blind Pickup took there was something else (a Place on the
+        sink had missed, and the soap bottle beside the pot was taken, put down and taken again until the
+        step limit, generated valid_unseen game 64)."""
         where = self.state.memory.where.get(obj)
-        if where is None:
+        if where is None or self.view.is_ignored(obj, where[0], where[2]):
             return None
         pixel = self._spot_pixel((where[0], where[1] + WHERE_PUT_LIFT_M, where[2]))
         if pixel is None:
@@ -365,8 +362,7 @@ class Approach(InstanceChoice):
         return row, col
 
     def _blind_click(self, row: int, col: int, spot: Point) -> Click:
-        """A click at a pixel chosen for a remembered spot, carrying the spot itself as its point (so that
-        ``_from_own_spot`` knows it for one)."""
+        """A click at a pixel chosen for a remembered spot, with the spot itself as its world point."""
         instances = self.view.percept.instances
         H, W = instances.shape
         return Click(row=row, col=col, x=col / W, y=row / H, instance_id=int(instances[row, col]), point=spot)

@@ -257,7 +257,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
                 pending.action == "Pickup"
                 and click is not None
                 and not self.view.percept.persistent_ids
-                and not self._from_own_spot(subgoal.obj, click)
+                and not self._from_own_slot(subgoal.obj, click)
             ):
                 looks_like = self._held_look(subgoal.obj)
                 if looks_like is not None:

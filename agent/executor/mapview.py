@@ -201,7 +201,7 @@ class SessionMapView:
             self._visible[object_type] = [
                 v
                 for v in self.in_frame(object_type)
-                if not self._is_ignored(object_type, v.point[0], v.point[2])
+                if not self.is_ignored(object_type, v.point[0], v.point[2])
             ]
         return self._visible[object_type]
 
@@ -385,7 +385,8 @@ class SessionMapView:
         self._clusters.pop(object_type, None)
         self._near_parts = {key: part for key, part in self._near_parts.items() if key[0] != object_type}
 
-    def _is_ignored(self, object_type: str, x: float, z: float) -> bool:
+    def is_ignored(self, object_type: str, x: float, z: float) -> bool:
+        """Whether a world spot is ruled out for the type (an ignored spot covers it)."""
         return any(s.object_type == object_type and s.covers(x, z) for s in self._ignored)
 
     # ----- MapView (symbolic.predicates) -------------------------------------------------------------
