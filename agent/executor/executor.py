@@ -55,6 +55,8 @@ STATE_ACTIONS: frozenset[str] = frozenset({"Open", "Close", "ToggleOn", "ToggleO
 
 ROW_SWITCHES: frozenset[str] = frozenset({"StoveKnob"})
 """Switches that come in a row, each for one of several appliances of a kind (a stove's burners)."""
+ROW_EDGE_SHARE = 0.1
+"""Share of the frame's width at either side where a switch clicked may have more of its row beyond it."""
 
 STOP = "Stop"
 MAX_SUBGOALS_PER_STEP = 16
@@ -362,7 +364,29 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
+        elif subgoal.action is A.TOGGLE_ON and changed and not attempt.row_panned:
+            attempt.row_pan = self._pan_past_edge(click)
+            return attempt.row_pan is not None
         return left > 0
+
+    def _pan_past_edge(self, click: Click) -> str | None:
+        """A sideways step toward the view's edge that a switch of a row was clicked at, when nothing else
+        of the row is known: the rest of the row may lie past that edge (a knob at the left edge was taken
+        for the whole row, and it was another burner's: generated valid_unseen game 28). None when the
+        click was not at an edge or the step would not be onto standable floor."""
+        width = self.view.camera.width
+        if click.col < ROW_EDGE_SHARE * width:
+            move = "Pan Left"
+        elif click.col >= (1.0 - ROW_EDGE_SHARE) * width:
+            move = "Pan Right"
+        else:
+            return None
+        after = self.pose.apply_motion(move, True)
+        cell = self.view.map.frame.world_to_cell(after.x, after.z)
+        if not (self.view.map.frame.contains(*cell) and bool(self.view.standable()[cell])):
+            return None
+        self.events.append(f"switched one at the view's edge; {move} to see the rest of the row")
+        return move
 
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:
         attempt = self.state.attempt
@@ -507,6 +531,11 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             attempt.switch_steps += 1
             if attempt.switch_steps > self.cfg.row_switch_steps:
                 return Done(f"switched {len(attempt.switched)} of the {obj} row; the rest is out of reach")
+            if attempt.row_pan is not None:
+                move, attempt.row_pan, attempt.row_panned = attempt.row_pan, None, True
+                return Act(move, f"{subgoal}: the rest of the row may lie past the view's edge")
+            if attempt.row_panned and not self._switches_left(subgoal, attempt):
+                return Done(f"switched {len(attempt.switched)} of the {obj} row; no more of it in view")
         if subgoal.action is A.NAVIGATE:
             if self.state.belief.held == obj:
                 return Done(f"IsGrasped: {obj} is in hand")
