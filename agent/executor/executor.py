@@ -350,17 +350,10 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         on = self.state.memory.switched_on.setdefault(obj, [])
         if subgoal.action is A.TOGGLE_ON and changed:
             on.append((click.instance_id, click.point))
-        if subgoal.action is A.TOGGLE_OFF:  # learned ids are a frame's own: the spot tells which it was
-            persistent = self.view.percept.persistent_ids
-            on[:] = [
-                item
-                for item in on
-                if (
-                    item[0] != click.instance_id
-                    if persistent
-                    else not self._switched(item[1], [(0, click.point)])
-                )
-            ]
+        if subgoal.action is A.TOGGLE_OFF and self.view.percept.persistent_ids:
+            on[:] = [item for item in on if item[0] != click.instance_id]
+        elif subgoal.action is A.TOGGLE_OFF:  # learned ids are a frame's own: the spot tells which it was
+            on[:] = [item for item in on if not self._switched(item[1], attempt.switched[-1:])]
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
