@@ -26,6 +26,7 @@ This module holds the step itself; the parts it calls are mixins over ``step.Ste
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -40,6 +41,7 @@ from agent.executor.standin import SlicingStandIn
 from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
+from agent.geometry import project_points
 from agent.navigation.base import Navigator
 from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
@@ -55,8 +57,9 @@ STATE_ACTIONS: frozenset[str] = frozenset({"Open", "Close", "ToggleOn", "ToggleO
 
 ROW_SWITCHES: frozenset[str] = frozenset({"StoveKnob"})
 """Switches that come in a row, each for one of several appliances of a kind (a stove's burners)."""
-ROW_EDGE_SHARE = 0.1
-"""Share of the frame's width at either side where a switch clicked may have more of its row beyond it."""
+ROW_SPACING_M = 0.3
+"""Metres: the farthest apart two neighbouring switches of a row stand (the generator's stove knobs 0.15-0.25
+m)."""
 
 STOP = "Stop"
 MAX_SUBGOALS_PER_STEP = 16
@@ -357,29 +360,33 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
-        elif subgoal.action is A.TOGGLE_ON and changed and not attempt.row_panned:
-            attempt.row_pan = self._pan_past_edge(click)
-            return attempt.row_pan is not None
+        elif (
+            subgoal.action is A.TOGGLE_ON
+            and changed
+            and len(attempt.switched) == 1
+            and not attempt.row_turned
+        ):
+            attempt.row_turn = self._turn_past_edge(click)
+            return attempt.row_turn is not None
         return left > 0
 
-    def _pan_past_edge(self, click: Click) -> str | None:
-        """A sideways step toward the view's edge that a switch of a row was clicked at, when nothing else
-        of the row is known: the rest of the row may lie past that edge (a knob at the left edge was taken
-        for the whole row, and it was another burner's: generated valid_unseen game 28). None when the
-        click was not at an edge or the step would not be onto standable floor."""
-        width = self.view.camera.width
-        if click.col < ROW_EDGE_SHARE * width:
-            move = "Pan Left"
-        elif click.col >= (1.0 - ROW_EDGE_SHARE) * width:
-            move = "Pan Right"
-        else:
+    def _turn_past_edge(self, click: Click) -> str | None:
+        """A turn toward the view's edge when nothing else of a row is known and a switch of it could stand
+        past that edge: the spot ``ROW_SPACING_M`` beside the one switched, across the view, is out of the
+        frame on that side only (a knob near the left edge was taken for the whole row, and it was another
+        burner's: generated valid_unseen games 28 and 88). A turn, not a sideways step: the agent may stand
+        beside the row, which then runs away from it. None when both or neither such spot is out of the
+        frame."""
+        yaw = math.radians(self.pose.yaw)
+        across = np.array([math.cos(yaw), 0.0, -math.sin(yaw)]) * ROW_SPACING_M
+        beside = np.array(click.point) + np.stack([-across, across])  # [2, 3] world points
+        _, cols, _ = project_points(beside, self.view.camera, self.pose)
+        past_left, past_right = bool((cols < 0).any()), bool((cols >= self.view.camera.width).any())
+        if past_left == past_right:
             return None
-        after = self.pose.apply_motion(move, True)
-        cell = self.view.map.frame.world_to_cell(after.x, after.z)
-        if not (self.view.map.frame.contains(*cell) and bool(self.view.standable()[cell])):
-            return None
-        self.events.append(f"switched one at the view's edge; {move} to see the rest of the row")
-        return move
+        turn = "Turn Left" if past_left else "Turn Right"
+        self.events.append(f"switched one near the view's edge; {turn} to see the rest of the row")
+        return turn
 
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:
         attempt = self.state.attempt
@@ -524,10 +531,10 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             attempt.switch_steps += 1
             if attempt.switch_steps > self.cfg.row_switch_steps:
                 return Done(f"switched {len(attempt.switched)} of the {obj} row; the rest is out of reach")
-            if attempt.row_pan is not None:
-                move, attempt.row_pan, attempt.row_panned = attempt.row_pan, None, True
-                return Act(move, f"{subgoal}: the rest of the row may lie past the view's edge")
-            if attempt.row_panned and not self._switches_left(subgoal, attempt):
+            if attempt.row_turn is not None:
+                turn, attempt.row_turn, attempt.row_turned = attempt.row_turn, None, True
+                return Act(turn, f"{subgoal}: the rest of the row may lie past the view's edge")
+            if attempt.row_turned and not self._switches_left(subgoal, attempt):
                 return Done(f"switched {len(attempt.switched)} of the {obj} row; no more of it in view")
         if subgoal.action is A.NAVIGATE:
             if self.state.belief.held == obj:
