@@ -364,19 +364,20 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             subgoal.action is A.TOGGLE_ON
             and changed
             and len(attempt.switched) == 1
-            and not attempt.row_turned
+            and not attempt.row_panned
         ):
-            attempt.row_turn = self._turn_past_edge(click)
-            return attempt.row_turn is not None
+            attempt.row_pan = self._pan_past_edge(click)
+            return attempt.row_pan is not None
         return left > 0
 
-    def _turn_past_edge(self, click: Click) -> str | None:
-        """A turn toward the view's edge when nothing else of a row is known and a switch of it could stand
-        past that edge: the spot ``ROW_SPACING_M`` beside the one switched, across the view, is out of the
-        frame on that side only (a knob near the left edge was taken for the whole row, and it was another
-        burner's: generated valid_unseen games 28 and 88). A turn, not a sideways step: the agent may stand
-        beside the row, which then runs away from it. None when both or neither such spot is out of the
-        frame."""
+    def _pan_past_edge(self, click: Click) -> str | None:
+        """A sideways step toward the view's edge when nothing else of a row is known and a switch of it
+        could stand past that edge: the spot ``ROW_SPACING_M`` beside the one switched, across the view, is
+        out of the frame on that side only (a knob near the left edge was taken for the whole row, and it
+        was another burner's: generated valid_unseen games 28 and 88). A step, not a turn: the agent faces
+        the row's front to click a knob, and from the side learned segmentation does not find knobs. None
+        when both or neither such spot is out of the frame, or the step would not be onto standable
+        floor."""
         yaw = math.radians(self.pose.yaw)
         across = np.array([math.cos(yaw), 0.0, -math.sin(yaw)]) * ROW_SPACING_M
         beside = np.array(click.point) + np.stack([-across, across])  # [2, 3] world points
@@ -384,9 +385,13 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         past_left, past_right = bool((cols < 0).any()), bool((cols >= self.view.camera.width).any())
         if past_left == past_right:
             return None
-        turn = "Turn Left" if past_left else "Turn Right"
-        self.events.append(f"switched one near the view's edge; {turn} to see the rest of the row")
-        return turn
+        move = "Pan Left" if past_left else "Pan Right"
+        after = self.pose.apply_motion(move, True)
+        cell = self.view.map.frame.world_to_cell(after.x, after.z)
+        if not (self.view.map.frame.contains(*cell) and bool(self.view.standable()[cell])):
+            return None
+        self.events.append(f"switched one near the view's edge; {move} to see the rest of the row")
+        return move
 
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:
         attempt = self.state.attempt
@@ -531,10 +536,10 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             attempt.switch_steps += 1
             if attempt.switch_steps > self.cfg.row_switch_steps:
                 return Done(f"switched {len(attempt.switched)} of the {obj} row; the rest is out of reach")
-            if attempt.row_turn is not None:
-                turn, attempt.row_turn, attempt.row_turned = attempt.row_turn, None, True
-                return Act(turn, f"{subgoal}: the rest of the row may lie past the view's edge")
-            if attempt.row_turned and not self._switches_left(subgoal, attempt):
+            if attempt.row_pan is not None:
+                move, attempt.row_pan, attempt.row_panned = attempt.row_pan, None, True
+                return Act(move, f"{subgoal}: the rest of the row may lie past the view's edge")
+            if attempt.row_panned and not self._switches_left(subgoal, attempt):
                 return Done(f"switched {len(attempt.switched)} of the {obj} row; no more of it in view")
         if subgoal.action is A.NAVIGATE:
             if self.state.belief.held == obj:

@@ -221,8 +221,8 @@ class Attempt:
     switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
     # (stove knobs) switched this subgoal
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch
-    row_turn: str | None = None  # a turn to see the rest of the row past the view's edge (once)
-    row_turned: bool = False  # that turn was made
+    row_pan: str | None = None  # a sideways step to see the rest of the row past the view's edge (once)
+    row_panned: bool = False  # that step was taken
     blind_clicks: int = 0  # clicks aimed at a remembered spot of the target (``_click_remembered``)
 
     def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:

@@ -1358,22 +1358,21 @@ def _knobs_in_view(sim: Simulator) -> dict[str, float]:
 
 
 def _stand_with_one_knob_at_the_edge(sim: Simulator, burner_id: str) -> None:
-    """Stand where a single knob of the row shows, 30-60 pixels in from the left or right edge of the view
-    (not at the edge itself) and within reach, and it is not the knob of ``burner_id`` (the rest of the row
-    lies past that edge)."""
+    """Stand facing the row's front where a single knob of it shows, in the fifth of the view at its left or
+    right edge, and it is not the knob of ``burner_id`` (the rest of the row lies past that edge)."""
     world = sim.world
     knobs = world.of_type("StoveKnob")
     for i, j in np.argwhere(sim.reachable()):
         x, z = world.room.cell_center(int(i), int(j))
         if min(math.dist((x, z), (k.center[0], k.center[2])) for k in knobs) > 0.9:
             continue
-        for yaw in (0, 90, 180, 270):
-            world.agent.x, world.agent.z, world.agent.yaw, world.agent.horizon = x, z, yaw, 30.0
-            shown = _knobs_in_view(sim)
-            if len(shown) == 1:
-                ((knob_id, col),) = shown.items()
-                if (30 <= col < 60 or 240 <= col < 270) and world.objects[knob_id].controls != burner_id:
-                    return
+        facing_front = (knobs[0].facing + 180) % 360  # as the agent stands to click a knob
+        world.agent.x, world.agent.z, world.agent.yaw, world.agent.horizon = x, z, facing_front, 30.0
+        shown = _knobs_in_view(sim)
+        if len(shown) == 1:
+            ((knob_id, col),) = shown.items()
+            if not 60 <= col < 240 and world.objects[knob_id].controls != burner_id:
+                return
     raise AssertionError("no standing place sees one knob alone at the view's edge")
 
 
