@@ -22,7 +22,8 @@ Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; 
 episodes. Writes ``bench/results/perception_ablation.json`` (24 games, all four settings); the issue's
 100-game run of ``oracle`` and ``learned`` is kept in ``perception_ablation_100.json`` (``--n 100 --settings
 oracle learned --out bench/results/perception_ablation_100.json``, about 90 minutes on 2 cores: 8 for oracle,
-80 for learned).
+80 for learned). ``--task NAME --out FILE`` runs only that task's episodes among the ``--n`` (to re-run one
+task after a change aimed at it).
 """
 
 from __future__ import annotations
@@ -49,11 +50,13 @@ from harness.runner import (
     EpisodeUnavailable,
     Perception,
     RunnerOptions,
+    episode_task_name,
     generated_tfd_episode,
     run_episode,
 )
 from harness.service import running_service
 from harness.splits import Split
+from harness.tasks.teach import BENCHMARK_TASKS
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_ablation.json"
 SPLIT: Split = "valid_unseen"
@@ -175,6 +178,21 @@ def earlier_settings(path: Path, indices: Sequence[int]) -> dict[str, Any]:
     return dict(rows) if earlier.get("split") == SPLIT and same else {}
 
 
+def episode_indices(n: int, task: str | None = None) -> tuple[list[int], list[int]]:
+    """The slots among the first ``n`` whose episode the generator makes (of ``task`` only, if given), and
+    the slots it cannot make."""
+    indices, skipped = [], []
+    for index in range(n):
+        try:
+            episode = generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA)
+        except EpisodeUnavailable:
+            skipped.append(index)
+            continue
+        if task is None or episode_task_name(episode) == task:
+            indices.append(index)
+    return indices, skipped
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m bench.perception_ablation", description=__doc__.splitlines()[0]
@@ -189,14 +207,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="keep the settings --out already holds for the same episodes (run the settings in turns)",
     )
+    parser.add_argument(
+        "--task",
+        choices=BENCHMARK_TASKS,
+        help="only the episodes of this task among the --n (with an --out of its own): to re-run one task",
+    )
     args = parser.parse_args(argv)
-    indices, skipped = [], []
-    for index in range(args.n):
-        try:
-            generated_tfd_episode(SPLIT, index, DEFAULT_CAMERA)
-            indices.append(index)
-        except EpisodeUnavailable:
-            skipped.append(index)
+    if args.task is not None and args.out == RESULTS:
+        parser.error("--task writes a part of the episodes: give it an --out of its own")
+    indices, skipped = episode_indices(args.n, args.task)
     results: dict[str, Any] = {}
     if args.url is not None:
         results = {s: run_setting(s, indices, args.url, args.workers) for s in args.settings}
@@ -211,6 +230,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "camera": [DEFAULT_CAMERA.width, DEFAULT_CAMERA.height, DEFAULT_CAMERA.hfov_deg],
         "planner": "oracle (expert subgoals)",
         "episodes": len(indices),
+        "task": args.task or "all",
         "skipped_indices": skipped,
         "workers": args.workers,
         "half_settings_run_in": "bench process, sent through the oracle channels (module docstring)",

@@ -434,7 +434,7 @@ def episode_outcome(
     RemoteModel, commander and follower) ends in the same row, so their numbers compare."""
     return EpisodeOutcome(
         instance_id=episode.instance_id,
-        task_name=_task_name(episode),
+        task_name=episode_task_name(episode),
         success=final_report.success,
         gc_satisfied=final_report.satisfied,
         gc_total=final_report.total,
@@ -450,7 +450,7 @@ def episode_outcome(
     )
 
 
-def _task_name(episode: Episode) -> str:
+def episode_task_name(episode: Episode) -> str:
     """TEACh's task name, or ALFRED's task type."""
     return episode.task.task_type if isinstance(episode.task, AlfredTask) else episode.task.task_name
 
