@@ -38,7 +38,7 @@ from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.room import MakeRoom
 from agent.executor.standin import SlicingStandIn
-from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending
+from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending, Point
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
 from agent.geometry import project_points
@@ -349,14 +349,18 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         obj = subgoal.obj
         if obj not in ROW_SWITCHES or subgoal.action not in (A.TOGGLE_ON, A.TOGGLE_OFF):
             return False
-        attempt.switched.append((click.instance_id, click.point))
         on = self.state.memory.switched_on.setdefault(obj, [])
-        if subgoal.action is A.TOGGLE_ON and changed:
-            on.append((click.instance_id, click.point))
+        where = click.point
         if subgoal.action is A.TOGGLE_OFF and self.view.percept.persistent_ids:
             on[:] = [item for item in on if item[0] != click.instance_id]
-        elif subgoal.action is A.TOGGLE_OFF:  # learned ids are a frame's own: the spot tells which it was
-            on[:] = [item for item in on if not self._switched(item[1], attempt.switched[-1:])]
+        elif subgoal.action is A.TOGGLE_OFF:
+            turned = self._turned_on_at(on, click.point)
+            if turned is not None:
+                on.remove(turned)
+                where = turned[1]
+        attempt.switched.append((click.instance_id, where))
+        if subgoal.action is A.TOGGLE_ON and changed:
+            on.append((click.instance_id, click.point))
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
@@ -369,6 +373,17 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             attempt.row_pan = self._pan_past_edge(click)
             return attempt.row_pan is not None
         return left > 0
+
+    @staticmethod
+    def _turned_on_at(on: list[tuple[int, Point]], point: Point) -> tuple[int, Point] | None:
+        """Which of the switches the agent turned on a ToggleOff clicked at ``point`` was, under learned
+        perception (a frame's own ids name nothing later): the one remembered nearest, within half a row's
+        spacing. Learned depth puts a knob's point 0.1 m off where it was at the ToggleOn, so matching
+        within ``ROW_SWITCH_GAP_M`` left knobs already off counted as on, and each was clicked again,
+        "already in that state" (generated valid_unseen game 28)."""
+        near = [(math.hypot(p[0] - point[0], p[2] - point[2]), k) for k, (_, p) in enumerate(on)]
+        distance, k = min(near, default=(math.inf, -1))
+        return on[k] if distance <= ROW_SPACING_M / 2 else None
 
     def _pan_past_edge(self, click: Click) -> str | None:
         """A sideways step toward the view's edge when nothing else of a row is known and a switch of it
