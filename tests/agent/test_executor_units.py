@@ -1319,12 +1319,11 @@ def _drive_seeing(
     return decisions
 
 
-def _unrecognised(percept: Percept, pixels: np.ndarray, read_as: int = 0) -> Percept:
-    """``percept`` with ``pixels`` read as class ``read_as`` (0: nothing, and no instance there)."""
+def _unrecognised(percept: Percept, pixels: np.ndarray) -> Percept:
+    """``percept`` with ``pixels`` read as nothing (no class, no instance)."""
     class_ids, instances = percept.class_ids.copy(), percept.instances.copy()
-    class_ids[pixels] = read_as
-    if read_as == 0:
-        instances[pixels] = 0
+    class_ids[pixels] = 0
+    instances[pixels] = 0
     return dataclasses.replace(percept, class_ids=class_ids, instances=instances)
 
 
