@@ -8,6 +8,7 @@ import io
 import cv2
 import numpy as np
 import pytest
+from PIL import Image
 
 from agent.classes import load_class_index
 from agent.geometry import Camera
@@ -71,6 +72,10 @@ def test_rgba_and_grey_pngs_become_rgb(frame) -> None:
     np.testing.assert_array_equal(decode_rgb(_png(rgba), CAMERA), frame.rgb)
     grey = decode_rgb(_png(frame.rgb[:, :, 0].copy()), CAMERA)
     np.testing.assert_array_equal(grey[:, :, 1], frame.rgb[:, :, 0])
+    few_colours = (frame.rgb // 64) * 64  # a palette PNG holds at most 256 colours
+    palette = io.BytesIO()
+    Image.fromarray(few_colours).convert("P", palette=Image.Palette.ADAPTIVE, colors=64).save(palette, "PNG")
+    np.testing.assert_array_equal(decode_rgb(palette.getvalue(), CAMERA), few_colours)
 
 
 def test_depth_png16_millimetres_round_trips_to_a_millimetre(frame) -> None:
@@ -152,6 +157,7 @@ BAD_INPUTS = [
     ("rgb garbage base64", lambda f: {"rgb": "not*base64!"}, "rgb", "base64"),
     ("rgb not an image", lambda f: {"rgb": b"GIF89a-definitely-not-a-png"}, "rgb", "not a PNG or JPEG"),
     ("rgb 16-bit", lambda f: {"rgb": _png(np.zeros((H, W, 3), np.uint16))}, "rgb", "8-bit"),
+    ("rgb broken png", lambda f: {"rgb": b"\x89PNG\r\n\x1a\nbroken"}, "rgb", "not a PNG or JPEG"),
     ("rgb empty", lambda f: {"rgb": ""}, "rgb", "empty"),
     (
         "depth wrong size",
