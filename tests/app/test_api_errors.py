@@ -325,6 +325,15 @@ CASES = [
         raw_body=json.dumps(_step(pose={"x": float("nan"), "z": 0.0, "yaw": 0.0, "horizon": 0.0})).encode(),
     ),
     Case(
+        "malformed JSON step",
+        "POST",
+        f"/v1/sessions/{LIVE}/step",
+        400,
+        "malformed_json",
+        "at byte",
+        raw_body=b'{"depth_encoding": "png16_mm", "rgb": ',
+    ),
+    Case(
         "step out of order",
         "POST",
         f"/v1/sessions/{LIVE}/step",

