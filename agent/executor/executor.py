@@ -401,9 +401,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         if past_left == past_right:
             return None
         move = "Pan Left" if past_left else "Pan Right"
-        after = self.pose.apply_motion(move, True)
-        cell = self.view.map.frame.world_to_cell(after.x, after.z)
-        if not (self.view.map.frame.contains(*cell) and bool(self.view.standable()[cell])):
+        if not self._standable_after(move):
             return None
         self.events.append(f"switched one near the view's edge; {move} to see the rest of the row")
         return move

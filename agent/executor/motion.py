@@ -84,22 +84,21 @@ class MotionSafety(StepContext):
         agent back facing the way it wanted), else back; else turn the other way round."""
         side, other_side = ("Pan Left", "Pan Right") if turn == "Turn Left" else ("Pan Right", "Pan Left")
         for move in (other_side, side, "Backward"):
-            after = self.pose.apply_motion(move, True)
-            cell = self.view.map.frame.world_to_cell(after.x, after.z)
-            if self.view.map.frame.contains(*cell) and bool(self.view.standable()[cell]):
+            if self._standable_after(move):
                 return move
         return OPPOSITE_TURN[turn]
+
+    def _standable_after(self, move: str) -> bool:
+        """Whether the map says the body can stand where one move would take it."""
+        after = self.pose.apply_motion(move, True)
+        frame = self.view.map.frame
+        cell = frame.world_to_cell(after.x, after.z)
+        return frame.contains(*cell) and bool(self.view.standable()[cell])
 
     def _random_feasible_motion(self, exclude: str, moves_only: bool = False) -> str:
         """A random motion that the map does not say collides (turns qualify unless ``moves_only``)."""
         options = [] if moves_only else ["Turn Left", "Turn Right"]
-        standable = self.view.standable()
-        frame = self.view.map.frame
-        for move in ("Forward", "Backward", "Pan Left", "Pan Right"):
-            after = self.pose.apply_motion(move, True)
-            cell = frame.world_to_cell(after.x, after.z)
-            if frame.contains(*cell) and standable[cell]:
-                options.append(move)
+        options += [m for m in ("Forward", "Backward", "Pan Left", "Pan Right") if self._standable_after(m)]
         options = [o for o in options if o != exclude] or ["Backward"]
         return str(options[int(self.rng.integers(len(options)))])
 
