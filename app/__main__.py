@@ -12,6 +12,7 @@ def main() -> None:
     settings = Settings()
     # log_config=None: uvicorn's loggers go through the JSON handler create_app installs; its access log
     # is off because app.request_log writes one richer event per request.
+    # http and loop stay "auto": uvicorn takes httptools and uvloop (dependencies) when importable.
     uvicorn.run(
         create_app(settings), host=settings.host, port=settings.port, log_config=None, access_log=False
     )
