@@ -223,6 +223,8 @@ class Attempt:
     switch_steps: int = 0  # actions spent on the rest of the row since the first switch
     row_pan: str | None = None  # a sideways step to see the rest of the row past the view's edge (once)
     row_panned: bool = False  # that step was taken
+    late_switch: Click | None = None  # a switch of the row seen only while turning it off: to turn on now
+    late_switched: list[Point] = field(default_factory=list)  # where such late switches were clicked
     blind_clicks: int = 0  # clicks aimed at a remembered spot of the target (``_click_remembered``)
 
     def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:
