@@ -397,8 +397,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         """A switch of the row in view now, while the row is turned off, that the agent never switched: to
         turn on (and then off with the rest). Under learned segmentation a glowing knob hides its neighbours
         from the network: in generated valid_unseen game 88 the knob beside the one turned on showed only
-        once that one was off again, and it was the pot's burner's. None under true segmentation, where the
-        row's knobs are mapped before the first is turned on."""
+        once that one was off again, and it was the pot's burner's. Asked under learned segmentation only:
+        under true segmentation the row's knobs are mapped before the first is turned on."""
         on = self.state.memory.switched_on.get(obj, [])
         done = [p for _, p in on] + [p for _, p in attempt.switched] + attempt.late_switched
         first = attempt.switched[0][1]
