@@ -365,11 +365,11 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         attempt.switched.append((click.instance_id, where))
         if subgoal.action is A.TOGGLE_ON and changed:
             on.append((click.instance_id, click.point))
-        left = self._switches_left(subgoal, attempt)
         if subgoal.action is A.TOGGLE_OFF and changed and not self.view.percept.persistent_ids:
             attempt.late_switch = self._late_switch(obj, attempt)
             if attempt.late_switch is not None:
                 return True
+        left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
         elif (
