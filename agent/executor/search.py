@@ -323,12 +323,11 @@ class ContainerSearch(Approach):
             self._take_hint(obj, search)
         if search.visit is not None:
             return self._visit_container(obj, attempt)
-        checked = self.state.searched.setdefault(obj, [])
-        seen = self.state.containers
-        parts = unsighted(container_candidates(self.view, self.onto, obj, checked, cfg), seen)
-        candidates = opening_order(sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer)
-        hinted = [c for c in candidates if c.object_type == search.prefer]
         exploring = not search.exhausted and search.explore_steps < cfg.max_explore_steps
+        # Ranking the map's container parts costs milliseconds; an exploring step without a hinted type
+        # only needs them if it explores no further.
+        candidates = None if exploring and search.prefer is None else self._candidates(obj, search)
+        hinted = [c for c in candidates or [] if c.object_type == search.prefer]
         if exploring and not hinted:
             if abs(self.pose.horizon - cfg.explore_horizon_deg) > 1e-3:
                 direction = "down" if cfg.explore_horizon_deg > self.pose.horizon else "up"
@@ -364,6 +363,8 @@ class ContainerSearch(Approach):
                 )
                 return self._visit_container(obj, attempt)
         limit = cfg.max_hinted_containers if hinted else cfg.max_containers
+        if candidates is None:
+            candidates = self._candidates(obj, search)
         if candidates and search.containers_opened < limit:
             best = candidates[0]
             search.visit = ContainerVisit(
@@ -383,6 +384,13 @@ class ContainerSearch(Approach):
             f"search({obj}): not found after exploring and opening {opened} containers",
             question=f"Where is the {obj}?",
         )
+
+    def _candidates(self, obj: str, search: SearchState) -> list[ContainerCandidate]:
+        """The containers that may hold X and were not looked into for it, in the order to open them."""
+        seen = self.state.containers
+        checked = self.state.searched.setdefault(obj, [])
+        parts = unsighted(container_candidates(self.view, self.onto, obj, checked, self.cfg.search), seen)
+        return opening_order(sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer)
 
     def _accept_second(self, obj: str, attempt: Attempt) -> Outcome | None:
         """Settle for a second-rate X (``choice._second_rate``) once the search for a better one has done
