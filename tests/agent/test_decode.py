@@ -217,6 +217,20 @@ def test_bad_input_names_its_field(frame, case: str, change, field: str, words: 
     assert words in error.value.detail, error.value.detail
 
 
+@pytest.mark.parametrize("offset", [0, 70_000], ids=["16-bit ids", "colour ids past 16 bits"])
+def test_ids_missing_from_the_legend_are_named(frame, offset: int) -> None:
+    ids = frame.instances + offset * (frame.instances > 0)
+    image = np.stack([(ids >> 16) & 255, (ids >> 8) & 255, ids & 255], axis=2).astype(np.uint8)  # BGR
+    legend = {k + offset: v for k, v in frame.legend.items() if k > 0}
+    apple_id = next(k for k, v in legend.items() if v == "Apple")
+    inputs = {**_good(frame), "segmentation": _png(image), "segmentation_legend": legend}
+    assert decode_observation(CAMERA, **inputs).legend == legend
+    del legend[apple_id]
+    with pytest.raises(ObservationError) as error:
+        decode_observation(CAMERA, **inputs)
+    assert error.value.detail == f"instance ids {apple_id} have no entry in segmentation_legend"
+
+
 def test_unknown_type_lists_close_types(frame) -> None:
     with pytest.raises(ObservationError) as error:
         decode_observation(CAMERA, **{**_good(frame), "segmentation_legend": {**frame.legend, 5: "Aple"}})
