@@ -103,9 +103,8 @@ MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
 
 CLOSE_RETRIES = 2
-"""Times a container the search opened is clicked again when closing it failed with estimated depth. A door
-left open bars the way, and under learned segmentation its swung door and open inside read as another
-container to open."""
+"""Times a container the search opened is clicked again when closing it failed. A door left open bars the
+way, and under learned segmentation its swung door and open inside read as another container to open."""
 
 
 @dataclass(frozen=True)
@@ -974,16 +973,10 @@ class ContainerSearch(Approach):
             if visit.opened_at is not None:  # aim at the middle of its front, not the door's edge clicked
                 visit.target, visit.opened_at = self._front_middle(visit.object_type, visit.opened_at), None
             self.events.append(f"search: closed the {visit.object_type} to open it again from in front")
-        elif (
-            visit.stage == "close"
-            and not success
-            and self.view.percept.depth_far is not None
-            and visit.close_failures < CLOSE_RETRIES
-        ):
+        elif visit.stage == "close" and not success and visit.close_failures < CLOSE_RETRIES:
             # Estimated depth put the open inside within reach (generated valid_unseen game 52: a click 1.61 m
             # away, from the horizon the search had looked in with); look at it as when it was opened, and
-            # click elsewhere on it. With exact depth the click was in reach: a Close judged failed then
-            # found the door shut already, or closed it unseen at the view's edge.
+            # click elsewhere on it.
             visit.close_failures += 1
             visit.looks = 0
             if pending.click is not None:
