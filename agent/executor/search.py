@@ -21,16 +21,7 @@ from agent.executor.approach import Approach
 from agent.executor.clicks import Click, pixel_points
 from agent.executor.config import ExplorerName, SearchConfig
 from agent.executor.mapview import MapCluster, SessionMapView
-from agent.executor.state import (
-    Attempt,
-    Box,
-    ContainerVisit,
-    FailedClick,
-    Pending,
-    Point,
-    SearchState,
-    in_box,
-)
+from agent.executor.state import Attempt, Box, ContainerVisit, Pending, Point, SearchState, in_box
 from agent.executor.step import Act, GiveUp, Outcome
 from agent.exploration_gt import GoalTransformerExplorer
 from agent.navigation.base import GRID_STEP_M, NavGoal, Navigator, widened
@@ -101,10 +92,6 @@ goal the agent can reach keeps its cells, and the search its course."""
 
 MAX_SEARCHES_PER_STEP = 64
 """Search decisions within one step (each skipped container or surface starts another): a bound."""
-
-CLOSE_RETRIES = 2
-"""Times a container the search opened is clicked again when closing it failed. A door left open bars the
-way, and under learned segmentation its swung door and open inside read as another container to open."""
 
 
 @dataclass(frozen=True)
@@ -403,13 +390,7 @@ class ContainerSearch(Approach):
         seen = self.state.containers
         checked = self.state.searched.setdefault(obj, [])
         parts = unsighted(container_candidates(self.view, self.onto, obj, checked, self.cfg.search), seen)
-        sighted = sighted_candidates(self.view, self.onto, obj, seen)
-        if not self.view.percept.persistent_ids:
-            # A learned segmenter's instances of one cabinet land half a metre apart from view to view (its
-            # open door, a part of its face): one cabinet was opened six times over (generated valid_unseen
-            # game 52). What lies in a container already looked into is that container.
-            sighted = [c for c in sighted if not was_searched(c.target, checked)]
-        return opening_order(sighted + parts, search.prefer)
+        return opening_order(sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer)
 
     def _accept_second(self, obj: str, attempt: Attempt) -> Outcome | None:
         """Settle for a second-rate X (``choice._second_rate``) once the search for a better one has done
@@ -490,17 +471,6 @@ class ContainerSearch(Approach):
             if visit.hinted and not visit.reopen:
                 attempt.hint_checked = True  # not in there after all: any X will do now
             visit.stage, visit.looks = "close", 0
-        opened_from = visit.opened_horizon if visit.stage == "close" and visit.close_failures else None
-        if (
-            opened_from is not None
-            and abs(self.pose.horizon - opened_from) > 1e-3
-            and visit.looks < self.cfg.look_sweep
-        ):
-            visit.looks += 1  # closing it failed: look at it as when it was opened first
-            return Act(
-                self._look_toward(opened_from),
-                f"search({obj}): look at the {kind} as when it was opened, to close it",
-            )
         action = "Open" if visit.stage == "open" else "Close"
         target = visit.opened_at or visit.target
         candidates = sorted(
@@ -942,7 +912,6 @@ class ContainerSearch(Approach):
             if success and pending.click is not None:
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id
-                visit.opened_horizon = pending.pose.horizon
                 search.containers_opened += 1
                 self._mark_opened(visit, attempt.subgoal.obj)
                 self.state.memory.where[visit.object_type] = pending.click.point  # the open one, for "Close"
@@ -973,15 +942,6 @@ class ContainerSearch(Approach):
             if visit.opened_at is not None:  # aim at the middle of its front, not the door's edge clicked
                 visit.target, visit.opened_at = self._front_middle(visit.object_type, visit.opened_at), None
             self.events.append(f"search: closed the {visit.object_type} to open it again from in front")
-        elif visit.stage == "close" and not success and visit.close_failures < CLOSE_RETRIES:
-            # Estimated depth put the open inside within reach (generated valid_unseen game 52: a click 1.61 m
-            # away, from the horizon the search had looked in with); look at it as when it was opened, and
-            # click elsewhere on it.
-            visit.close_failures += 1
-            visit.looks = 0
-            if pending.click is not None:
-                attempt.failed_clicks.append(FailedClick.of(pending.click, pending.pose))
-            self.events.append(f"search: closing the {visit.object_type} failed; trying again")
         elif visit.stage == "close":
             self._mark_opened(visit, attempt.subgoal.obj)
             self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))

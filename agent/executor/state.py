@@ -174,8 +174,6 @@ class ContainerVisit:
     reopened: bool = False  # it was closed and opened again from in front (once per visit)
     extent: Box | None = None  # the opened instance's extent as seen when opening it
     looks: int = 0  # turns and pitch changes spent without a clickable view of it
-    opened_horizon: float | None = None  # the camera pitch (degrees) it was opened with
-    close_failures: int = 0  # clicks that did not close it again
 
 
 @dataclass

@@ -19,17 +19,14 @@ from executor_support import (
 
 from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
 from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
-from agent.executor.executor import _Run
 from agent.executor.looks import StainConfig, looks, stained_share
 from agent.executor.mapview import IgnoredSpot, SessionMapView
 from agent.executor.replay import holding_before
 from agent.executor.state import Attempt, FailedClick
-from agent.executor.step import Act
 from agent.executor.success import instance_colour
 from agent.geometry import Camera, Pose
 from agent.mapping import SemanticMap
 from agent.perception import Observation, Percept
-from agent.perception.oracle import OraclePerception
 from agent.session import FrameAlignment
 from harness.simulator import Simulator
 from harness.world import World, WorldObject
@@ -1206,11 +1203,14 @@ def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_t
     assert any(spot.object_type == openable[0] for spot in executor.state.ignored)
 
 
-def _searching_run(learned: bool, visit_at: tuple[float, float]) -> tuple[_Run, Attempt, Pose]:
-    """A step of a search for a bowl in front of a counter, its visit at a cabinet (dx, dz) from the agent,
-    with a learned segmenter's percept (ids renumbered each frame) or the true one."""
+def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_again_for_the_search() -> None:
+    # An Open of the search's cabinet changed nothing (a door standing open, or something misnamed a
+    # cabinet): the spot was ruled out but the same sighting was chosen again, 28 failed Opens in a row
+    # until TEACh's failure limit ended the game.
     from agent.executor import Executor, StepInputs
-    from agent.executor.state import ContainerVisit
+    from agent.executor.clicks import Click
+    from agent.executor.executor import _Run
+    from agent.executor.state import Attempt, ContainerVisit, Pending, Sighting
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -1220,19 +1220,18 @@ def _searching_run(learned: bool, visit_at: tuple[float, float]) -> tuple[_Run, 
     assert obs.pose is not None and obs.instances is not None
     onto = load_ontology()
     camera, pose = Camera(300, 300, 90.0), obs.pose
-    percept = (
-        _learned_percept(obs, obs.instances)
-        if learned
-        else OraclePerception(camera).perceive(obs, target_type=None)
-    )
+    learned = _learned_percept(obs, obs.instances)
     executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
+    cabinet = Sighting("Cabinet", (pose.x + 0.4, 0.6, pose.z + 0.6), 5, 900)
+    executor.state.containers.append(cabinet)
     (subgoal,) = parse_subgoals("Pickup Bowl", onto)
     attempt = Attempt(0, subgoal, first_step=0)
-    attempt.search.visit = ContainerVisit("Cabinet", (pose.x + visit_at[0], 0.6, pose.z + visit_at[1]), 0.0)
+    attempt.search.visit = ContainerVisit("Cabinet", cabinet.point, 0.0)
     executor.state.attempt = attempt
+    click = Click(150, 150, 0.5, 0.5, 9, (pose.x + 0.3, 0.7, pose.z + 0.5))
     semantic_map = SemanticMap(camera, pose)
-    semantic_map.update(percept, pose)
-    view = _first_view(semantic_map, percept, camera, pose)
+    semantic_map.update(learned, pose)
+    view = _first_view(semantic_map, learned, camera, pose)
     inputs = StepInputs(1, pose, view, obs, digest(obs, SuccessConfig()), False)
     run = _Run(
         ontology=onto,
@@ -1244,74 +1243,11 @@ def _searching_run(learned: bool, visit_at: tuple[float, float]) -> tuple[_Run, 
         plan=[subgoal],
         pointer=0,
     )
-    return run, attempt, pose
-
-
-def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_again_for_the_search() -> None:
-    # An Open of the search's cabinet changed nothing (a door standing open, or something misnamed a
-    # cabinet): the spot was ruled out but the same sighting was chosen again, 28 failed Opens in a row
-    # until TEACh's failure limit ended the game.
-    from agent.executor.clicks import Click
-    from agent.executor.state import Pending, Sighting
-
-    run, attempt, pose = _searching_run(learned=True, visit_at=(0.4, 0.6))
-    assert attempt.search.visit is not None
-    cabinet = Sighting("Cabinet", attempt.search.visit.target, 5, 900)
-    run.state.containers.append(cabinet)
-    click = Click(150, 150, 0.5, 0.5, 9, (pose.x + 0.3, 0.7, pose.z + 0.5))
 
     run._judge_search_action(Pending("Open", "search", 0, pose, click=click), success=False)
 
     assert attempt.search.visit is None
     assert cabinet.searched_for == ["Bowl"], "the search moves on to another container"
-
-
-def test_a_container_the_search_failed_to_close_is_closed_again_as_it_was_opened() -> None:
-    # Generated valid_unseen game 52 with learned perception: opened looking 30° down, looked into at 0°,
-    # and the Close from there clicked its open inside 1.61 m away; the door was left open, and the search
-    # came back to "open" it again and again (failed Opens until TEACh's failure limit).
-    from agent.executor.clicks import Click
-    from agent.executor.search import CLOSE_RETRIES
-    from agent.executor.state import Pending
-
-    run, attempt, pose = _searching_run(learned=True, visit_at=(0.4, 0.6))
-    visit = attempt.search.visit
-    assert visit is not None
-    visit.stage, visit.opened_horizon = "close", pose.horizon + 30.0
-    click = Click(280, 150, 0.5, 0.95, 9, (pose.x + 0.4, 0.1, pose.z + 1.6))
-
-    for _ in range(CLOSE_RETRIES):
-        run._judge_search_action(Pending("Close", "search", 0, pose, click=click), success=False)
-        assert attempt.search.visit is visit and visit.stage == "close", "it is closed again, not left open"
-        assert visit.looks == 0
-    assert [(f.row, f.col) for f in attempt.failed_clicks] == [(280, 150)] * CLOSE_RETRIES, (
-        "clicked elsewhere"
-    )
-    outcome = run._visit_container("Bowl", attempt)
-    assert isinstance(outcome, Act) and outcome.action == "Look Down", outcome
-
-    run._judge_search_action(Pending("Close", "search", 0, pose, click=click), success=False)
-    assert attempt.search.visit is None, "then the search moves on"
-
-
-@pytest.mark.parametrize("learned", [True, False], ids=["learned segmentation", "true segmentation"])
-def test_a_sighting_inside_a_container_already_looked_into_is_not_opened_for_the_search(
-    learned: bool,
-) -> None:
-    # Generated valid_unseen game 52 with learned perception: a learned segmenter's instances of one cabinet
-    # (its swung door, part of its face) landed up to half a metre apart, each a new sighting, and the
-    # search opened that cabinet five times over. True segmentation's ids tell a neighbour apart.
-    from agent.executor.state import Sighting
-
-    run, attempt, pose = _searching_run(learned=learned, visit_at=(0.4, 0.6))
-    run.state.searched["Bowl"] = [((pose.x, 0.0, pose.z + 0.5), (pose.x + 0.6, 0.8, pose.z + 1.1))]
-    inside = Sighting("Cabinet", (pose.x + 0.3, 0.4, pose.z + 0.7), 5, 900)
-    beyond = Sighting("Cabinet", (pose.x - 0.6, 0.4, pose.z + 0.7), 6, 900)
-    run.state.containers.extend([inside, beyond])
-
-    sighted = [c.target for c in run._candidates("Bowl", attempt.search) if c.instance_id is not None]
-
-    assert sighted == ([beyond.point] if learned else [inside.point, beyond.point])
 
 
 def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -> None:
