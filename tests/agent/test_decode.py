@@ -217,7 +217,7 @@ def test_bad_input_names_its_field(frame, case: str, change, field: str, words: 
     assert words in error.value.detail, error.value.detail
 
 
-@pytest.mark.parametrize("offset", [0, 70_000], ids=["16-bit ids", "colour ids past 16 bits"])
+@pytest.mark.parametrize("offset", [0, 70_000], ids=["ids below 65536", "ids from 65536 up"])
 def test_ids_missing_from_the_legend_are_named(frame, offset: int) -> None:
     ids = frame.instances + offset * (frame.instances > 0)
     image = np.stack([(ids >> 16) & 255, (ids >> 8) & 255, ids & 255], axis=2).astype(np.uint8)  # BGR
