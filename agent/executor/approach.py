@@ -214,11 +214,17 @@ class Approach(InstanceChoice):
         return cells
 
     def _goal_cells(
-        self, cluster: MapCluster, attempt: Attempt, obj: str | None = None, front: np.ndarray | None = None
+        self,
+        cluster: MapCluster,
+        attempt: Attempt,
+        obj: str | None = None,
+        front: np.ndarray | None = None,
+        known_first: bool = True,
     ) -> np.ndarray:
         """Cells from which the cluster is within reach and in view (``interaction_goal_cells``), with a
         clear line of sight to a small target (an open fridge door must not hide the bread inside):
-        known floor first, any floor else; clear sight preferred, not required.
+        known floor first (unless ``known_first`` is False), any floor else; clear sight preferred, not
+        required.
 
         Computed on a window around the cluster (reach plus the body's radius): the distance transforms
         then cost a fraction of the whole map's.
@@ -245,7 +251,8 @@ class Approach(InstanceChoice):
         )
         excluded = self._near_bad_stands(attempt, sub_frame)
         local = np.zeros_like(standable)
-        for floor in (standable & known, standable):  # known floor before any floor
+        floors = (standable & known, standable) if known_first else (standable,)
+        for floor in floors:  # known floor before any floor
             local = interaction_goal_cells(
                 cluster.cells[window], floor, sub_frame, hfov_deg=view.camera.hfov_deg
             )

@@ -1280,15 +1280,16 @@ def _drive_seeing(
     subgoals: str,
     eyes: Callable[[Observation], tuple[Percept, Percept]],
     max_steps: int,
+    pointer: int = 0,
 ) -> list[Decision]:
-    """The executor driving the simulator through ``subgoals``, each frame seen through ``eyes`` (what
-    enters the map, what the view shows); the simulator tells whether each action succeeded, as a caller
-    that sends ``last_action_success`` does."""
+    """The executor driving the simulator through ``subgoals`` from the ``pointer``-th, each frame seen
+    through ``eyes`` (what enters the map, what the view shows); the simulator tells whether each action
+    succeeded, as a caller that sends ``last_action_success`` does."""
     from agent.executor import StepInputs
     from symbolic.subgoals import parse_subgoals
 
     camera = Camera(300, 300, 90.0)
-    plan, pointer = list(parse_subgoals(subgoals, executor.ontology)), 0
+    plan = list(parse_subgoals(subgoals, executor.ontology))
     semantic_map: SemanticMap | None = None
     decisions: list[Decision] = []
     success: bool | None = None
@@ -1447,3 +1448,85 @@ def test_with_learned_segmentation_what_a_blind_pickup_took_instead_is_not_taken
     assert len(pickups) == 1, [d.reason for d in decisions]
     assert "where it was put down" in pickups[0].reason
     assert sim.world.agent.held is None, "the apple was put down again"
+
+
+def test_with_learned_segmentation_a_stove_knob_is_looked_for_from_the_floor_nearest_its_burner() -> None:
+    # The learned segmenter reads a stove knob only from the row of floor nearest to the stove's front; the
+    # search for one explored the rooms at arm's length from everything and never found it (generated
+    # valid_unseen game 40). It now first looks from close by at the burner the pot stands on.
+    from agent.classes import load_class_index
+    from agent.executor import Executor
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+
+    world, potato = boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
+    sim = simulator(world)
+    burner = world.objects[world.objects[potato.parent_id or ""].parent_id or ""]
+    knobs = world.of_type("StoveKnob")
+
+    def knob_distance(x: float, z: float) -> float:
+        return min(math.dist((x, z), (k.center[0], k.center[2])) for k in knobs)
+
+    # Start at most 2 m from the knobs, as far as that, turned away from them: no knob in view.
+    standing = [world.room.cell_center(int(i), int(j)) for i, j in np.argwhere(sim.reachable())]
+    world.agent.x, world.agent.z = max(
+        (c for c in standing if knob_distance(*c) <= 2.0), key=lambda c: knob_distance(*c)
+    )
+    world.agent.yaw, world.agent.horizon = int(knobs[0].facing), 30.0  # the way the knobs face
+    assert not _knobs_in_view(sim)
+    knob_class = load_class_index().id_of("StoveKnob")
+
+    def eyes(obs: Observation) -> tuple[Percept, Percept]:  # knobs read only from within 0.4 m of one
+        assert obs.instances is not None and obs.pose is not None
+        percept = _learned_percept(obs, obs.instances)
+        if knob_distance(obs.pose.x, obs.pose.z) > 0.4:
+            percept = _unrecognised(percept, percept.class_ids == knob_class)
+        return percept, percept
+
+    onto = load_ontology()
+    executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
+    executor.state.memory.where["StoveBurner"] = burner.center  # where the pot was put
+    decisions = _drive_seeing(sim, executor, "ToggleOn StoveKnob", eyes, max_steps=25)
+
+    assert decisions[-1].plan_done, [d.reason for d in decisions]
+    assert sim.world.objects[potato.object_id].is_boiled, [(d.action, d.reason) for d in decisions]
+
+
+def test_a_faucet_is_looked_for_beside_the_sink_not_beside_the_pot_just_put_on_the_stove() -> None:
+    # The close look for a switch goes to what the plan last put something into only when that is what
+    # the switch controls or stands on it: after "Place Pot" on the stove, the faucet was looked for
+    # beside the pot (generated valid_unseen game 40, learned perception).
+    from agent.classes import load_class_index
+    from agent.executor import Executor
+    from agent.navigation import make_navigator
+    from symbolic.belief import BeliefState
+    from symbolic.ontology import load_ontology
+
+    world, potato = boiling_pot_on_a_burner_whose_knob_is_not_the_nearest()
+    sim = simulator(world)
+    pot = world.objects[potato.parent_id or ""]
+    sink, faucet = world.of_type("SinkBasin")[0], world.of_type("Faucet")[0]
+    faucet_class = load_class_index().id_of("Faucet")
+
+    def eyes(obs: Observation) -> tuple[Percept, Percept]:  # the faucet read only from within 1 m
+        assert obs.instances is not None and obs.pose is not None
+        percept = _learned_percept(obs, obs.instances)
+        if math.dist((obs.pose.x, obs.pose.z), (faucet.center[0], faucet.center[2])) > 1.0:
+            percept = _unrecognised(percept, percept.class_ids == faucet_class)
+        return percept, percept
+
+    onto = load_ontology()
+    belief = BeliefState.initial(onto)
+    belief.inside["Pot"] = "StoveBurner"
+    executor = Executor(onto, make_navigator("fmm"), belief, np.random.default_rng(0))
+    executor.state.memory.where.update(Pot=pot.center, SinkBasin=sink.center)
+    _stand_facing(sim, pot)
+    decisions = _drive_seeing(
+        sim, executor, "Place StoveBurner, Place Pot, ToggleOn Faucet", eyes, max_steps=30, pointer=2
+    )
+
+    events = [event for d in decisions for event in d.events]
+    assert any("will look from close by at the SinkBasin" in event for event in events), events
+    assert not any("at the Pot" in event for event in events), events
+    assert faucet.is_toggled, [(d.action, d.reason) for d in decisions]
