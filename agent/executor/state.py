@@ -160,7 +160,7 @@ class ContainerVisit:
     target: Point  # the container part to open: its mapped cells' centre, at the middle of its height band
     top_low_m: float  # metres: the lowest its top can be (reach to it is judged on this)
     stage: Literal["look", "open", "inspect", "close"] = "open"  # "look": an open receptacle, looked at
-    near: bool = False  # a "look" from the row of floor nearest to it, while a way there is known
+    near: bool = False  # a "look" from the row of floor nearest to it, or none
     pitch: float | None = None  # a "look" at this camera pitch rather than toward its height
     opened_at: Point | None = None
     instance_id: int | None = None  # the instance opened (segmentation ids are stable within an episode)
