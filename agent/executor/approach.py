@@ -252,7 +252,7 @@ class Approach(InstanceChoice):
         excluded = self._near_bad_stands(attempt, sub_frame)
         local = np.zeros_like(standable)
         floors = (standable & known, standable) if known_first else (standable,)
-        for floor in floors:  # known floor before any floor
+        for floor in floors:
             local = interaction_goal_cells(
                 cluster.cells[window], floor, sub_frame, hfov_deg=view.camera.hfov_deg
             )

@@ -401,7 +401,7 @@ class ContainerSearch(Approach):
 
     def _beside_controlled(self, obj: str) -> ContainerVisit | None:
         """For a switch (a stove knob, a faucet), a look from close by at what it controls where the plan
-        last put something (the burner under the pot, the sink), unless looked at from near already.
+        last put something (the burner under the pot, the sink), unless that spot was looked at already.
 
         The switch sits beside what it controls, and a knob is small: standing square to the stove at the
         explore pitch in four Boil X kitchens, the learned segmenter read a knob from 12 of the 13 cells of
@@ -420,8 +420,7 @@ class ContainerSearch(Approach):
         for kind in (*placed, *controlled):
             point = where.get(kind)
             if point is not None and not was_searched(point, looked):
-                pitch = self.cfg.search.explore_horizon_deg  # where the segmenter reads a stove's front
-                return ContainerVisit(kind, point, point[1], stage="look", near=True, pitch=pitch)
+                return ContainerVisit(kind, point, point[1], stage="look", near=True)
         return None
 
     def _nearest_row(self, goal: np.ndarray, point: Point) -> np.ndarray:
@@ -626,8 +625,8 @@ class ContainerSearch(Approach):
         return kept & (along >= math.cos(math.radians(FRONT_CONE_DEG)) * distance)
 
     def _look_at_surface(self, obj: str, attempt: Attempt, visit: ContainerVisit) -> Outcome:
-        """Walk to an open receptacle's part, face it, and look at it from a few pitches (or the visit's
-        own); a ``near`` visit looks from the row of floor nearest to it, or not at all."""
+        """Walk to an open receptacle's part, face it, and look at it from a few pitches; a ``near`` visit
+        looks from the row of floor nearest to it at the explore pitch, or not at all."""
         kind = visit.object_type
         if self._found(obj, attempt):
             attempt.search.visit = None
@@ -657,8 +656,8 @@ class ContainerSearch(Approach):
             if turn is not None and visit.looks < self.cfg.look_sweep:
                 visit.looks += 1
                 return Act(turn, f"search({obj}): face the {kind}")
-            if not visit.sweep and visit.inspect_steps == 0 and visit.pitch is not None:
-                visit.sweep = [visit.pitch]
+            if not visit.sweep and visit.inspect_steps == 0 and visit.near:
+                visit.sweep = [self.cfg.search.explore_horizon_deg]  # where knobs are read
             elif not visit.sweep and visit.inspect_steps == 0:
                 want = self._horizon_toward_point(visit.target)
                 visit.sweep = sorted(self._horizons(), key=lambda h: (abs(h - want), h))[:2]

@@ -160,8 +160,7 @@ class ContainerVisit:
     target: Point  # the container part to open: its mapped cells' centre, at the middle of its height band
     top_low_m: float  # metres: the lowest its top can be (reach to it is judged on this)
     stage: Literal["look", "open", "inspect", "close"] = "open"  # "look": an open receptacle, looked at
-    near: bool = False  # a "look" from the row of floor nearest to it, or none
-    pitch: float | None = None  # a "look" at this camera pitch rather than toward its height
+    near: bool = False  # a "look" from the row of floor nearest to it at the explore pitch, or none
     opened_at: Point | None = None
     instance_id: int | None = None  # the instance opened (segmentation ids are stable within an episode)
     inspect_steps: int = 0  # horizons looked into it from the current viewpoint
@@ -190,7 +189,7 @@ class SearchState:
     prefer: str | None = None  # container type the plan hints at (it just opened one for the target)
     surfaces_looked: int = 0  # open receptacle parts looked at
     hinted: bool = False  # the hint was looked for
-    switch_looked: bool = False  # a switch was looked for beside what it controls
+    switch_looked: bool = False  # the close look beside what a switch controls was considered
 
 
 @dataclass
