@@ -181,7 +181,9 @@ class InstanceChoice(StepContext):
         """The closed container (cabinet, drawer) the plan last put something into, when the plan's next
         Pickup or Place puts what the agent holds into one of that type too: "put all the cups in one
         cabinet" means that one (``Memory.stored_in``). Without this the agent took the nearest cabinet,
-        the one it had just found the second cup in (generated valid_unseen game 67)."""
+        the one it had just found the second cup in (generated valid_unseen game 67). With the simulator's
+        ids, a cabinet in view that is not that one is never taken for it: the agent walks to that one
+        (game 67 again, where the agent ended a walk facing the cabinet beside it and put a mug there)."""
         stored = self.state.memory.stored_in.get(obj)
         if stored is None:
             return None
@@ -360,6 +362,12 @@ class InstanceChoice(StepContext):
         same = self._the_one_dealt_with(obj, opened, candidates) if opened is not None else None
         if same is not None:
             return same  # the cabinet it opened, for "Place Cabinet" and "Close Cabinet"
+        if (
+            stored is not None
+            and opened is not None
+            and attempt.instance_failures(opened, stored[0], persistent) < self.cfg.retries_per_instance
+        ):
+            return None  # that cabinet is out of view: walk to it, not to the other cabinet in view
         ranked = sorted(candidates, key=lambda v: self._rank(obj, v, v.nearest_m))
         best = ranked[0]
         best_key = self._rank(obj, best, best.nearest_m)

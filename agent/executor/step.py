@@ -24,7 +24,7 @@ from agent.perception.base import Observation
 from symbolic.ontology import Ontology
 from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal
-from symbolic.thor import HORIZON_MAX_DEG, HORIZON_MIN_DEG
+from symbolic.thor import HORIZON_MAX_DEG, HORIZON_MIN_DEG, TURN_STEP_DEG
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,10 +129,14 @@ class StepContext(ABC):
 
     def _turn_toward(self, point: tuple[float, float, float]) -> str | None:
         """The turn that brings a world point toward the middle of the view, if it is more than a third of
-        the field of view off-centre."""
+        the field of view off-centre and the turn leaves it nearer the middle than it was.
+
+        A turn is TURN_STEP_DEG (90°): a point 40° right of ahead would end 50° left, out of a 90° view,
+        and the next step turned back (generated valid_unseen game 47: left, right, left, right at an open
+        cabinet, after which the agent looked in facing away from it)."""
         bearing = math.degrees(math.atan2(point[0] - self.pose.x, point[2] - self.pose.z))
         off = (bearing - self.pose.yaw + 180.0) % 360.0 - 180.0  # degrees right of straight ahead
-        if abs(off) > self.view.camera.hfov_deg / 3:
+        if abs(off) > max(self.view.camera.hfov_deg / 3, TURN_STEP_DEG / 2):
             return "Turn Right" if off > 0 else "Turn Left"
         return None
 

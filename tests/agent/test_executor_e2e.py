@@ -11,6 +11,7 @@ from executor_support import (
     CAMERA,
     ENCLOSING,
     KITCHEN_SEED,
+    Drive,
     boiling_pot_on_a_burner_whose_knob_is_not_the_nearest,
     drive,
     kitchen,
@@ -471,8 +472,9 @@ def test_a_lettuce_ignored_while_its_fridge_was_shut_is_taken_once_the_fridge_is
 def test_all_the_cups_go_into_the_one_cabinet_the_first_went_into(client: TestClient) -> None:
     """ "Put all the drinkware in one cabinet" (generated valid_unseen game 67, the expert's plan): each
     "Place Cabinet" means the cabinet the first mug went into, not the nearest one (the agent put the second
-    cup back into the cabinet it had just found it in); and the last cup, taken out while a cup it put away
-    shows through the door from afar and not from near, is found without walking to and fro for 300 steps."""
+    cup back into the cabinet it had just found it in), nor the one beside it that a walk ended facing (the
+    agent once put a mug there); and the last cup, taken out while a cup it put away shows through the door
+    from afar and not from near, is found without walking to and fro for 300 steps."""
     episode = generated_episode("valid_unseen", 67, DEFAULT_CAMERA)
     plan = ", ".join(f"{s.action.value} {s.obj}" for s in episode.future_subgoals)
 
@@ -487,3 +489,25 @@ def test_all_the_cups_go_into_the_one_cabinet_the_first_went_into(client: TestCl
     assert len(moved) >= 3 and len(parents) == 1, [(o.object_id, o.parent_id) for o in moved]
     (parent,) = parents
     assert parent is not None and parent.startswith("Cabinet"), parent
+
+
+def _turned_back(run: Drive) -> list[int]:
+    """Steps whose turn undoes the turn just before it (the agent stood still and looked where it had)."""
+    actions = [answer["action"] for answer in run.answers]
+    undo = {("Turn Left", "Turn Right"), ("Turn Right", "Turn Left")}
+    return [step for step in range(1, len(actions)) if (actions[step - 1], actions[step]) in undo]
+
+
+def test_the_agent_faces_an_open_cabinet_with_one_turn_not_turning_back_and_forth(client: TestClient) -> None:
+    """ "Open Cabinet, Pickup Mug" with the mug not in sight from where the cabinet was opened: from the
+    next viewpoint the cabinet lies more than 45° to the left, and one Turn Left leaves it less than 45° to
+    the right, in view. Turning whenever it was more than 30° off centre once turned the agent left, right,
+    left, right there, and it looked into the cabinet facing away from it (generated valid_unseen Breakfast
+    game 47; the agent says it is done, holding the mug, after 133 steps, against 137 before)."""
+    episode = generated_episode("valid_unseen", 47, DEFAULT_CAMERA)
+
+    run = drive(client, episode.world, "Navigate Cabinet, Open Cabinet, Pickup Mug", max_steps=200)
+
+    assert _turned_back(run) == []
+    held = run.sim.world.held_object()
+    assert run.last["done"] and held is not None and held.object_type == "Mug", (run.last, held)
