@@ -136,7 +136,7 @@ class StepContext(ABC):
         and the next step turned back (generated valid_unseen game 47: left, right, left, right at an open
         cabinet, after which the agent looked in facing away from it). Learned segmentation keeps turning
         from a third of the view: with it, the wider limit lost 5 of the 24 learned-perception bench games
-        and gained none (SR 66.7% -> 45.8%, four of the five at the step limit); why was not traced."""
+        and gained none (SR 66.7% -> 45.8%, all five ended at the step limit); why was not traced."""
         bearing = math.degrees(math.atan2(point[0] - self.pose.x, point[2] - self.pose.z))
         off = (bearing - self.pose.yaw + 180.0) % 360.0 - 180.0  # degrees right of straight ahead
         limit = self.view.camera.hfov_deg / 3
