@@ -367,7 +367,7 @@ class InstanceChoice(StepContext):
             and opened is not None
             and attempt.instance_failures(opened, stored[0], persistent) < self.cfg.retries_per_instance
         ):
-            return None  # that cabinet is out of view: walk to it, not to the other cabinet in view
+            return None  # that cabinet is not among those clickable here: walk to it, not to another
         ranked = sorted(candidates, key=lambda v: self._rank(obj, v, v.nearest_m))
         best = ranked[0]
         best_key = self._rank(obj, best, best.nearest_m)
