@@ -456,10 +456,19 @@ class InstanceChoice(StepContext):
             return None
         return self.state.memory.instance.get(obj)
 
+    def _found_unreachable(self, cluster: MapCluster, attempt: Attempt) -> bool:
+        """Whether the navigator found no way to this cluster within the last ``unreachable_recheck_steps``
+        actions: what stood in the way then (an open door, a chair) may have moved, or been mapped anew."""
+        recent = self.inputs.step - self.cfg.unreachable_recheck_steps
+        return any(
+            math.hypot(cluster.x - x, cluster.z - z) < 0.3 and step > recent
+            for (x, z), step in attempt.unreachable
+        )
+
     def _clusters(self, obj: str, attempt: Attempt) -> list[MapCluster]:
-        """Mapped instances of ``obj`` not found unreachable (nor vanished on the way twice) this subgoal, in
-        order of preference; with an anchor, a cluster holding it is cut down to the part around it (one
-        cabinet of a row)."""
+        """Mapped instances of ``obj`` not found unreachable lately (nor vanished on the way twice) this
+        subgoal, in order of preference; with an anchor, a cluster holding it is cut down to the part around
+        it (one cabinet of a row)."""
         anchor = self._anchor(obj)
         box = self._hint_box(obj, attempt)
         clusters = []
@@ -473,7 +482,7 @@ class InstanceChoice(StepContext):
                 cluster = cluster.outside(full) if cluster is not None else None
             if cluster is None:
                 continue
-            if any(math.hypot(cluster.x - x, cluster.z - z) < 0.3 for x, z in attempt.unreachable):
+            if self._found_unreachable(cluster, attempt):
                 continue
             gone = sum(1 for x, z in attempt.vanished if math.hypot(cluster.x - x, cluster.z - z) < 0.3)
             if gone >= VANISHED_BEFORE_SKIPPED:

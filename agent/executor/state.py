@@ -203,7 +203,8 @@ class Attempt:
     failures: int = 0  # failed object actions for this subgoal
     failed_clicks: list[FailedClick] = field(default_factory=list)
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
-    unreachable: list[Spot] = field(default_factory=list)  # mapped clusters the navigator could not reach
+    unreachable: list[tuple[Spot, int]] = field(default_factory=list)  # mapped clusters the navigator could
+    # not reach, with the step it found so (``ExecutorConfig.unreachable_recheck_steps``)
     heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
     vanished: list[Spot] = field(default_factory=list)  # where one walked toward was gone from the map
     glanced: list[Spot] = field(default_factory=list)  # standing cells it pitched toward a seen X from
