@@ -459,9 +459,10 @@ class InstanceChoice(StepContext):
     def _found_unreachable(self, cluster: MapCluster, attempt: Attempt) -> bool:
         """Whether the navigator found no way to this cluster this subgoal; with exact depth, only within the
         last ``unreachable_recheck_steps`` actions: what stood in the way then (an open door) may have moved.
-        With estimated depth the verdict stands for the subgoal: there an unreachable X is mostly one the
-        network's depth mapped into furniture or past a wall, and trying it again every 25 actions lost
-        three of the 24 learned-perception bench games at the step limit (66.7% -> 58.3% SR)."""
+        With estimated depth the verdict stands for the subgoal: there trying again every 25 actions lost
+        three of the 24 learned-perception bench games at the step limit (66.7% -> 58.3% SR). Not traced; a
+        likely reading is an X the network's depth mapped into furniture or past a wall, walked at again
+        and again."""
         exact_depth = self.view.percept.depth_far is None
         recent = self.inputs.step - self.cfg.unreachable_recheck_steps if exact_depth else -1
         return any(
