@@ -112,7 +112,7 @@ class Approach(InstanceChoice):
                     unstick = self._unstick(attempt)
                     if unstick is not None:
                         return unstick
-            attempt.unreachable.append(((cluster.x, cluster.z), self.inputs.step))
+            attempt.unreachable.append(((cluster.x, cluster.z), attempt.search.doors_closed))
             self.events.append(f"{obj} at ({cluster.x:.2f}, {cluster.z:.2f}) is unreachable from here")
         return self._search(obj, attempt)
 

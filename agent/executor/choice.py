@@ -457,17 +457,19 @@ class InstanceChoice(StepContext):
         return self.state.memory.instance.get(obj)
 
     def _found_unreachable(self, cluster: MapCluster, attempt: Attempt) -> bool:
-        """Whether the navigator found no way to this cluster this subgoal; with exact depth, only within the
-        last ``unreachable_recheck_steps`` actions: what stood in the way then (an open door) may have moved.
-        With estimated depth the verdict stands for the subgoal: there trying again every 25 actions lost
-        three of the 24 learned-perception bench games at the step limit (66.7% -> 58.3% SR). Not traced; a
-        likely reading is an X the network's depth mapped into furniture or past a wall, walked at again
-        and again."""
+        """Whether the navigator found no way to this cluster this subgoal; with exact depth, only since the
+        search last closed a container: its open door may have barred the way (generated valid_unseen game
+        93: the fridge the plan opened stood between the agent and the bread beside it, and the bread stayed
+        written off after the search closed the fridge, for 400 steps). Not on a timer: a target 5 m off
+        whose way the map shows but the floor does not have was then walked at again and again, and an
+        apple already on the plate was carried off instead (``test_an_apple_already_on_the_plate_...``).
+        With estimated depth the verdict stands for the subgoal: re-tries there lost three of the 24
+        learned-perception bench games at the step limit (not traced)."""
         exact_depth = self.view.percept.depth_far is None
-        recent = self.inputs.step - self.cfg.unreachable_recheck_steps if exact_depth else -1
+        closed = attempt.search.doors_closed if exact_depth else -1
         return any(
-            math.hypot(cluster.x - x, cluster.z - z) < 0.3 and step > recent
-            for (x, z), step in attempt.unreachable
+            math.hypot(cluster.x - x, cluster.z - z) < 0.3 and doors >= closed
+            for (x, z), doors in attempt.unreachable
         )
 
     def _clusters(self, obj: str, attempt: Attempt) -> list[MapCluster]:

@@ -93,10 +93,6 @@ class ExecutorConfig:
     # the harness (like AI2-THOR's grid) lets the body centre come 0.15 m from furniture
     unstick_clearance_m: float = 0.12  # metres: room a move needs when the navigator sees no way out
     max_unstick: int = 3  # such moves per subgoal
-    unreachable_recheck_steps: int = 25  # actions after which a mapped X found unreachable is tried again,
-    # with exact depth: the way may have opened since (a fridge door the plan opened stood between the agent
-    # and the bread on the counter; closed 50 actions later, the bread stayed written off and the search ran
-    # 400 steps). With estimated depth the verdict stands for the subgoal (``choice._found_unreachable``)
     near_part_m: float = 1.5  # metres: of a longer cluster only the cells this much beyond its nearest
     # are walked to (the near end of a counter will do, and goal cells cost less to find)
     done_radius_m: float = 0.3  # metres: an instance this close to a finished one is that one

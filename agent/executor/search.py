@@ -991,18 +991,23 @@ class ContainerSearch(Approach):
                 visit.instance_id = pending.click.instance_id
                 self._mark_opened(visit, attempt.subgoal.obj)
                 self.events.append(f"search: the {visit.object_type} was open already")
-        elif visit.stage == "close" and visit.reopen and success:
-            # Opened from beside it (the plan's "Navigate Fridge" ended there), its swung door hid the inside
-            # and barred the way to its front: open it once more from in front (generated valid_unseen game
-            # 20, where the bowl in the fridge the plan opened was never seen, and the kitchen searched).
-            visit.stage, visit.reopen, visit.reopened = "open", False, True
-            visit.looks, visit.inspect_steps, visit.sweep = 0, 0, []
-            visit.moving, visit.side, visit.sides = False, None, []
-            if visit.opened_at is not None:  # aim at the middle of its front, not the door's edge clicked
-                visit.target, visit.opened_at = self._front_middle(visit.object_type, visit.opened_at), None
-            self.events.append(f"search: closed the {visit.object_type} to open it again from in front")
         elif visit.stage == "close":
-            self._mark_opened(visit, attempt.subgoal.obj)
-            self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))
-            search.visit = None
-            self.events.append(f"search: closed {visit.object_type} again")
+            if success:
+                search.doors_closed += 1  # a way its door barred may be free now (``_found_unreachable``)
+            if visit.reopen and success:
+                # Opened from beside it (the plan's "Navigate Fridge" ended there), its swung door hid the
+                # inside and barred the way to its front: open it once more from in front (generated
+                # valid_unseen game 20, where the bowl in the fridge the plan opened was never seen, and the
+                # kitchen searched).
+                visit.stage, visit.reopen, visit.reopened = "open", False, True
+                visit.looks, visit.inspect_steps, visit.sweep = 0, 0, []
+                visit.moving, visit.side, visit.sides = False, None, []
+                if visit.opened_at is not None:  # aim at the middle of its front, not the door's edge clicked
+                    visit.target = self._front_middle(visit.object_type, visit.opened_at)
+                    visit.opened_at = None
+                self.events.append(f"search: closed the {visit.object_type} to open it again from in front")
+            else:
+                self._mark_opened(visit, attempt.subgoal.obj)
+                self.state.searched.setdefault(attempt.subgoal.obj, []).append(self._visited_box(visit))
+                search.visit = None
+                self.events.append(f"search: closed {visit.object_type} again")

@@ -190,6 +190,7 @@ class SearchState:
     surfaces_looked: int = 0  # open receptacle parts looked at
     hinted: bool = False  # the hint was looked for
     switch_looked: bool = False  # the close look beside what a switch controls was considered
+    doors_closed: int = 0  # containers the search closed after looking in (each may free a way it barred)
 
 
 @dataclass
@@ -204,7 +205,7 @@ class Attempt:
     failed_clicks: list[FailedClick] = field(default_factory=list)
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
     unreachable: list[tuple[Spot, int]] = field(default_factory=list)  # mapped clusters the navigator could
-    # not reach, with the step it found so (``ExecutorConfig.unreachable_recheck_steps``)
+    # not reach, with ``search.doors_closed`` at the time (``choice._found_unreachable``)
     heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
     vanished: list[Spot] = field(default_factory=list)  # where one walked toward was gone from the map
     glanced: list[Spot] = field(default_factory=list)  # standing cells it pitched toward a seen X from

@@ -518,8 +518,8 @@ def test_a_target_once_out_of_reach_is_walked_to_when_the_way_opens(client: Test
     """The model planner's plan for generated valid_unseen Sandwich game 93 opens the fridge for the bread,
     which lies on the counter beside it. With the door open the navigator finds no way to the bread; the
     search closes the fridge after looking in, which opens the way again. The bread had stayed written off
-    for the whole subgoal, and the search went through the kitchen's cabinets for 400 steps; now the
-    agent tries the mapped bread again 25 actions later, walks to it and picks it up (done in 100 steps)."""
+    for the whole subgoal, and the search went through the kitchen's cabinets for 400 steps; now a
+    container the search closes lifts the verdict, and the agent walks to the bread and picks it up."""
     episode = generated_episode("valid_unseen", 93, DEFAULT_CAMERA)
     plan = (
         "Navigate Plate, Pickup Plate, Navigate CounterTop, Place CounterTop, Navigate Fridge, Open Fridge, "
