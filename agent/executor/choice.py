@@ -463,8 +463,9 @@ class InstanceChoice(StepContext):
         written off after the search closed the fridge, for 400 steps). Not on a timer: a target 5 m off
         whose way the map shows but the floor does not have was then walked at again and again, and an
         apple already on the plate was carried off instead (``test_an_apple_already_on_the_plate_...``).
-        With estimated depth the verdict stands for the subgoal: re-tries there lost three of the 24
-        learned-perception bench games at the step limit (not traced)."""
+        With estimated depth the verdict stands for the subgoal: timed re-tries there lost three of the 24
+        learned-perception bench games at the step limit (not traced), and a learned search opens and closes
+        many containers; this rule was not tried there."""
         exact_depth = self.view.percept.depth_far is None
         closed = attempt.search.doors_closed if exact_depth else -1
         return any(
@@ -473,9 +474,9 @@ class InstanceChoice(StepContext):
         )
 
     def _clusters(self, obj: str, attempt: Attempt) -> list[MapCluster]:
-        """Mapped instances of ``obj`` not found unreachable lately (nor vanished on the way twice) this
-        subgoal, in order of preference; with an anchor, a cluster holding it is cut down to the part around
-        it (one cabinet of a row)."""
+        """Mapped instances of ``obj`` not found unreachable (``_found_unreachable``) nor vanished on the way
+        twice this subgoal, in order of preference; with an anchor, a cluster holding it is cut down to the
+        part around it (one cabinet of a row)."""
         anchor = self._anchor(obj)
         box = self._hint_box(obj, attempt)
         clusters = []

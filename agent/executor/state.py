@@ -190,7 +190,7 @@ class SearchState:
     surfaces_looked: int = 0  # open receptacle parts looked at
     hinted: bool = False  # the hint was looked for
     switch_looked: bool = False  # the close look beside what a switch controls was considered
-    doors_closed: int = 0  # containers the search closed after looking in (each may free a way it barred)
+    doors_closed: int = 0  # containers the search closed (each may free a way its open door barred)
 
 
 @dataclass
