@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.executor.choice import ROW_REACH_M
+from agent.executor.choice import ROW_REACH_M, ROW_SWITCH_GAP_M
 from agent.executor.clicks import Click, ClickPurpose, VisibleInstance, held_type_in_view
 from agent.executor.config import ExecutorConfig
 from agent.executor.hints import HintFollowing
@@ -372,13 +372,8 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         left = self._switches_left(subgoal, attempt)
         if left:
             self.events.append(f"{subgoal}: switched one; {left} more of the row to switch")
-        elif (
-            subgoal.action is A.TOGGLE_ON
-            and changed
-            and len(attempt.switched) == 1
-            and not attempt.row_panned
-        ):
-            attempt.row_pan = self._pan_past_edge(click)
+        elif subgoal.action is A.TOGGLE_ON and changed and not attempt.row_panned:
+            attempt.row_pan = self._pan_past_edge([point for _, point in attempt.switched])
             return attempt.row_pan is not None
         return left > 0
 
@@ -421,24 +416,33 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         else:
             self.events.append(f"{subgoal}: one of the row seen only now did not turn on")
 
-    def _pan_past_edge(self, click: Click) -> str | None:
-        """A sideways step toward the view's edge when nothing else of a row is known and a switch of it
-        could stand past that edge: the spot ``ROW_SPACING_M`` beside the one switched, across the view, is
-        out of the frame on that side only (a knob near the left edge was taken for the whole row, and it
-        was another burner's: generated valid_unseen games 28 and 88). A step, not a turn: the agent faces
-        the row's front to click a knob, and from the side learned segmentation does not find knobs. None
-        when both or neither such spot is out of the frame. The step is taken whatever the map says of the
-        floor there: learned depth spreads a counter's front into the floor beside the agent (game 88: the
-        map held a step blocked that the simulator allowed), and a step that fails costs only itself."""
+    def _pan_past_edge(self, switched: list[Point]) -> str | None:
+        """A sideways step toward the view's edge when every switch of a row known is switched and another
+        could stand past that edge: the spot one knob spacing beyond an end of the switched ones, across the
+        view, is out of the frame on that side only (the spacing of the switched ones, or ``ROW_SPACING_M``
+        for one alone: with 0.3 m a row of three 0.19 m apart, all in view, looked longer than the frame).
+        A knob near the left edge was taken for the whole row, and it was another burner's (generated
+        valid_unseen games 28 and 88); with the model's plan, two knobs in view were taken for the row, and
+        the third, the pot's burner's, lay past the right edge (game 16). A step, not a turn: the agent
+        faces the row's front to click a knob, and from the side learned segmentation does not find knobs.
+        None when both or neither such spot is out of the frame. The step is taken whatever the map says of
+        the floor there: learned depth spreads a counter's front into the floor beside the agent (game 88:
+        the map held a step blocked that the simulator allowed), and a step that fails costs only itself."""
         yaw = math.radians(self.pose.yaw)
-        across = np.array([math.cos(yaw), 0.0, -math.sin(yaw)]) * ROW_SPACING_M
-        beside = np.array(click.point) + np.stack([-across, across])  # [2, 3] world points
+        across = np.array([math.cos(yaw), 0.0, -math.sin(yaw)])  # unit vector to the view's right
+        points = np.array(switched)  # [N, 3]
+        along = points @ across
+        gaps = np.diff(np.sort(along))
+        gaps = gaps[gaps >= ROW_SWITCH_GAP_M]
+        spacing = float(gaps.min()) if len(gaps) else ROW_SPACING_M
+        ends = points[[int(np.argmin(along)), int(np.argmax(along))]]
+        beside = ends + np.stack([-across, across]) * spacing  # [2, 3] world points past either end
         _, cols, _ = project_points(beside, self.view.camera, self.pose)
         past_left, past_right = bool((cols < 0).any()), bool((cols >= self.view.camera.width).any())
         if past_left == past_right:
             return None
         move = "Pan Left" if past_left else "Pan Right"
-        self.events.append(f"switched one near the view's edge; {move} to see the rest of the row")
+        self.events.append(f"the row switched ends near the view's edge; {move} to see the rest of it")
         return move
 
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:

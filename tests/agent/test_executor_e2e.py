@@ -538,3 +538,25 @@ def test_a_target_once_out_of_reach_is_walked_to_when_the_way_opens(client: Test
     assert written_off and picked and written_off[0] < picked[-1], (written_off, picked)
     held = run.sim.world.held_object()
     assert run.last["done"] and held is not None and held.object_type == "Bread", (run.last, held)
+
+
+def test_a_stove_knob_row_is_followed_past_the_view_edge_to_its_last_knob(client: TestClient) -> None:
+    """The model planner's plan for generated valid_unseen Boil X game 16 puts the pot on the stove's right
+    burner and then, from where the potato was put in, switches the knobs in view: two of the row's three,
+    neither of them the pot's burner's, which lies past the view's right edge and was never mapped. Both
+    were taken for the whole row, and the potato never boiled; now the row is followed one step past its
+    end at the edge, and the third knob is switched too."""
+    episode = generated_episode("valid_unseen", 16, DEFAULT_CAMERA)
+    plan = (
+        "Navigate Pot, Pickup Pot, Navigate SinkBasin, Place SinkBasin, ToggleOn Faucet, ToggleOff Faucet, "
+        "Pickup Pot, Navigate StoveBurner, Place StoveBurner, Navigate Fridge, Open Fridge, Navigate Potato, "
+        "Pickup Potato, Navigate Fridge, Close Fridge, Navigate Pot, Place Pot, Navigate StoveKnob, "
+        "ToggleOn StoveKnob, ToggleOff StoveKnob"
+    )
+
+    run = drive(client, episode.world, plan, max_steps=150)
+
+    assert run.last["done"], run.last
+    (potato,) = run.sim.world.of_type("Potato")
+    assert potato.is_boiled, [(a["action"], a["reason"]) for a in run.answers if a["action"] == "ToggleOn"]
+    assert not any(knob.is_toggled for knob in run.sim.world.of_type("StoveKnob")), "all off again"
