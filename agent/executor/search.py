@@ -537,8 +537,7 @@ class ContainerSearch(Approach):
             candidates = [v for v in candidates if v.instance_id not in opened]  # its neighbour was
         part = replace(self.view.spot_cluster(target, self.cfg.search.part_m / 2), top_low_m=visit.top_low_m)
         body = self._container_body(kind, target)
-        goal = self._goal_cells(part, attempt, None, self._front_cells(body) if body is not None else None)
-        goal = self._stand_off(goal, visit, target)
+        goal = self._stand_off(part, body, attempt, visit, target)
         here = self.view.map.world_to_cell(self.pose.x, self.pose.z)
         standing = bool(goal.any() and goal[here])
         if candidates:
@@ -581,13 +580,33 @@ class ContainerSearch(Approach):
                     return unstick
         return self._skip_container(obj, attempt, f"could not {action.lower()} it: {why}")
 
-    def _stand_off(self, goal: np.ndarray, visit: ContainerVisit, target: Point) -> np.ndarray:
-        """The goal cells in front of a container's face, ``STAND_OFF_M`` or more from a low one and
-        ``TALL_STAND_OFF_M`` from a taller one: in its facing's cone (``_facing``) when there are any, else
-        at that distance in any direction; all of them when none is."""
+    def _stand_off(
+        self,
+        part: MapCluster,
+        body: MapCluster | None,
+        attempt: Attempt,
+        visit: ContainerVisit,
+        target: Point,
+    ) -> np.ndarray:
+        """Where to stand to open a container part: the cells within reach of it (on the side with most
+        floor, ``_front_cells``, when one stands out) in front of its face, ``STAND_OFF_M`` or more from a
+        low one and ``TALL_STAND_OFF_M`` from a taller one: in its facing's cone (``_facing``) when there
+        are any, else at that distance in any direction; all of them when none is. When the face it faces
+        lies on another side than the most floor, the face wins: in generated valid_unseen game 93 the
+        fridge's side had more floor than its front (681 cells against 511); to open the front it had seen,
+        the agent stood at the side, found that front not in view and skipped the fridge, and the lettuce
+        in it was never found."""
+        front = self._front_cells(body) if body is not None else None
+        goal = self._goal_cells(part, attempt, None, front)
         low = target[1] < LOW_FACE_M
         facing = self._facing(visit.object_type, target, visit.instance_id)
-        ahead = self._front_cone(goal, target, facing, STAND_OFF_M if low else TALL_STAND_OFF_M)
+        min_m = STAND_OFF_M if low else TALL_STAND_OFF_M
+        ahead = self._front_cone(goal, target, facing, min_m)
+        if facing is not None and front is not None and not ahead.any():
+            wide = self._goal_cells(part, attempt, None)
+            wide_ahead = self._front_cone(wide, target, facing, min_m)
+            if wide_ahead.any():
+                goal, ahead = wide, wide_ahead
         past_door = ahead & self._door_clear(visit.object_type, target)
         if past_door.any():
             return past_door
@@ -966,9 +985,8 @@ class ContainerSearch(Approach):
             return
         search, visit = attempt.search, attempt.search.visit
         if visit.stage == "open":
-            if pending.click is not None:
-                self.state.opened_for.setdefault(attempt.subgoal.obj, []).append(pending.click.instance_id)
             if success and pending.click is not None:
+                self.state.opened_for.setdefault(attempt.subgoal.obj, []).append(pending.click.instance_id)
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id
                 search.containers_opened += 1
@@ -986,7 +1004,11 @@ class ContainerSearch(Approach):
                 self._rule_out_click(visit.object_type, pending.click, "it did not open")
                 self._mark_opened(visit, attempt.subgoal.obj)
                 search.visit = None
-            elif pending.click is not None:  # nothing changed: it stands open already; look in all the same
+            elif pending.click is not None:
+                # Nothing changed in view: it stands open already, or its door swung out of sight (opened
+                # from beside or behind it: generated valid_unseen game 93's fridge, opened from its side,
+                # whose lettuce was never seen); look in all the same, and it is no instance looked into
+                # (``opened_for``): another sighting of it, its front, is still opened from there.
                 visit.stage, visit.opened_at = "inspect", pending.click.point
                 visit.instance_id = pending.click.instance_id
                 self._mark_opened(visit, attempt.subgoal.obj)

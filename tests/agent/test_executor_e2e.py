@@ -560,3 +560,23 @@ def test_a_stove_knob_row_is_followed_past_the_view_edge_to_its_last_knob(client
     (potato,) = run.sim.world.of_type("Potato")
     assert potato.is_boiled, [(a["action"], a["reason"]) for a in run.answers if a["action"] == "ToggleOn"]
     assert not any(knob.is_toggled for knob in run.sim.world.of_type("StoveKnob")), "all off again"
+
+
+def test_a_fridge_opened_out_of_sight_is_opened_again_from_its_front(client: TestClient) -> None:
+    """In generated valid_unseen Sandwich game 93 (the model planner's plan) the search for the lettuce
+    opened the fridge from its side: the door swung out of sight, nothing changed in view, and the fridge
+    was taken for looked into. Its front, seen earlier, was then skipped as the same fridge, and from the
+    side with more floor than the front it was not in view anyway; the lettuce in it was never found. Now
+    an Open that changed nothing in view does not count as looking into it, and the agent stands in front
+    of the face it opens."""
+    episode = generated_episode("valid_unseen", 93, DEFAULT_CAMERA)
+    plan = (
+        "Navigate Plate, Pickup Plate, Navigate CounterTop, Place CounterTop, Navigate Fridge, Open Fridge, "
+        "Navigate Bread, Pickup Bread, Navigate Fridge, Close Fridge, Navigate CounterTop, Place CounterTop, "
+        "Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread, Navigate Lettuce, Slice Lettuce"
+    )
+
+    run = drive(client, episode.world, plan, max_steps=400)
+
+    assert run.last["done"], run.last
+    assert run.sim.world.of_type("LettuceSliced"), "the lettuce in the fridge was never found"
