@@ -191,6 +191,7 @@ class SearchState:
     hinted: bool = False  # the hint was looked for
     switch_looked: bool = False  # the close look beside what a switch controls was considered
     doors_closed: int = 0  # containers the search closed (each may free a way its open door barred)
+    unseen_opens: list[int] = field(default_factory=list)  # instances whose Open changed nothing in view
 
 
 @dataclass
