@@ -442,7 +442,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
         if past_left == past_right:
             return None
         move = "Pan Left" if past_left else "Pan Right"
-        self.events.append(f"the row switched ends near the view's edge; {move} to see the rest of it")
+        self.events.append(f"the knobs switched end near the view's edge; {move} to see the rest of the row")
         return move
 
     def _attempt_for(self, subgoal: Subgoal) -> Attempt:

@@ -1017,7 +1017,10 @@ class ContainerSearch(Approach):
                 visit.instance_id = pending.click.instance_id
                 search.unseen_opens.append(pending.click.instance_id)
                 self._mark_opened(visit, attempt.subgoal.obj)
-                self.events.append(f"search: the {visit.object_type} was open already")
+                self.events.append(
+                    f"search: opening the {visit.object_type} changed nothing in view (open already, or"
+                    " its door swung out of sight)"
+                )
         elif visit.stage == "close":
             if success:
                 search.doors_closed += 1  # a way its door barred may be free now (``_found_unreachable``)
