@@ -565,10 +565,10 @@ def test_a_stove_knob_row_is_followed_past_the_view_edge_to_its_last_knob(client
 def test_a_fridge_opened_out_of_sight_is_opened_again_from_its_front(client: TestClient) -> None:
     """In generated valid_unseen Sandwich game 93 (the model planner's plan) the search for the lettuce
     opened the fridge from its side: the door swung out of sight, nothing changed in view, and the fridge
-    was taken for looked into. Its front, seen earlier, was then skipped as the same fridge, and from the
-    side with more floor than the front it was not in view anyway; the lettuce in it was never found. Now
-    an Open that changed nothing in view does not count as looking into it, and the agent stands in front
-    of the face it opens."""
+    was taken for looked into. To open its front, seen earlier, the agent stood at the side again (it has
+    more floor than the front), where that front was not in view, and skipped it; from in front it would
+    have been skipped as the fridge looked into. The lettuce in it was never found. Now an Open that changed
+    nothing in view does not count as looking into it, and the agent opens the face seen from in front."""
     episode = generated_episode("valid_unseen", 93, DEFAULT_CAMERA)
     plan = (
         "Navigate Plate, Pickup Plate, Navigate CounterTop, Place CounterTop, Navigate Fridge, Open Fridge, "
