@@ -106,11 +106,9 @@ class ModelPlanner:
         if command is not None:
             return self._follow(command, context)
         turns = [(turn.speaker, turn.text) for turn in context.dialogue]
-        if context.instruction:
-            turns.insert(0, ("Commander", context.instruction))
-        if not any(text.strip() for _, text in turns):
+        if not (context.instruction or "").strip() and not any(text.strip() for _, text in turns):
             return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
-        source = format_planner_input(turns, context.history_subgoals)
+        source = format_planner_input(turns, context.history_subgoals, context.instruction)
         prediction = self.generator.predict(source)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")

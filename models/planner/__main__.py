@@ -209,12 +209,10 @@ def _predict(args: argparse.Namespace) -> int:
 
     ontology = load_ontology()
     turns = list(args.turn)
-    if args.instruction:
-        turns.insert(0, ("Commander", args.instruction))
-    if not turns:
+    if not turns and not args.instruction:
         raise SystemExit("give at least one --turn 'Commander: ...' or an --instruction")
     history = parse_subgoals(args.history, ontology) if args.history else []
-    source = format_planner_input(turns, history)
+    source = format_planner_input(turns, history, args.instruction)
     generator = SubgoalGenerator.from_directory(
         args.checkpoint, ontology, GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias)
     )

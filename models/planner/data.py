@@ -29,6 +29,7 @@ from models.planner.text import COMMANDER_MARK, format_instruction, format_plann
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import (
     Subgoal,
+    SubgoalAction,
     SubgoalSyntaxError,
     format_subgoals,
     parse_subgoals,
@@ -92,13 +93,15 @@ def alfred_examples(
     styles: Sequence[AlfredStyle] = ALFRED_STYLES,
     report: BuildReport | None = None,
     high_descs_per_trajectory: int | None = None,
+    continuations: bool = False,
 ) -> list[PlannerExample]:
     """One example per annotation and style; the target is the same plan for every annotation of a
     trajectory, because ALFRED's annotators described the one expert demonstration.
 
     ``high_descs_per_trajectory`` keeps only the first annotations' step-by-step style (a trajectory's
     three step lists say the same steps; they are six times longer than a task description, so they would
-    take most of a CPU training budget)."""
+    take most of a CPU training budget). ``continuations`` adds, per trajectory, its goal with part of the
+    plan done and with all of it done (``alfred_continuations``)."""
     report = report if report is not None else BuildReport()
     examples: list[PlannerExample] = []
     for trajectory in trajectories:
@@ -109,7 +112,14 @@ def alfred_examples(
         except (SubgoalSyntaxError, UnknownObjectType) as error:
             report.skip("alfred", f"{task_id}: {error}")
             continue
-        for number, annotation in enumerate(trajectory["turk_annotations"]["anns"]):
+        annotations = trajectory["turk_annotations"]["anns"]
+        if continuations:
+            for example in alfred_continuations(
+                task_id, annotations, target, str(trajectory["task_type"]), ontology
+            ):
+                examples.append(example)
+                report.kept[example.origin] += 1
+        for number, annotation in enumerate(annotations):
             for style in styles:
                 cap = high_descs_per_trajectory if style == "high_descs" else None
                 if cap is not None and number >= cap:
@@ -129,6 +139,41 @@ def alfred_examples(
                 )
                 report.kept[f"alfred:{style}"] += 1
     return examples
+
+
+def alfred_continuations(
+    task_id: str,
+    annotations: Sequence[Mapping[str, Any]],
+    plan_text: str,
+    task_type: str,
+    ontology: Ontology,
+) -> list[PlannerExample]:
+    """An instruction session re-plans when its plan runs out or fails, with the subgoals done after <HIS>
+    (``text.format_instruction``). Two such inputs per trajectory: the goal of one annotation with the plan
+    done up to one of its interactions (-> the rest), and with all of it done (-> nothing, so a finished
+    task is not started again). The annotation and the cut are picked by a hash of the trajectory's id, so
+    every build makes the same ones."""
+    goals = [str(a.get("task_desc", "")).strip() for a in annotations]
+    goals = [goal for goal in goals if goal]
+    plan = parse_subgoals(plan_text, ontology)
+    interactions = [i for i, subgoal in enumerate(plan) if subgoal.action is not SubgoalAction.NAVIGATE]
+    if not goals or not interactions:
+        return []
+    pick = int.from_bytes(hashlib.sha256(task_id.encode("utf-8")).digest()[:4], "big")
+    goal = goals[pick % len(goals)]
+    cuts = [("end", len(plan))]
+    if len(interactions) > 1:
+        cuts.insert(0, ("cut", interactions[pick % (len(interactions) - 1)] + 1))
+    return [
+        PlannerExample(
+            example_id=f"{task_id}:{name}:continuation",
+            source=format_instruction(goal, plan[:cut]),
+            target=format_subgoals(plan[cut:]),
+            task_type=task_type,
+            origin="alfred:continuation",
+        )
+        for name, cut in cuts
+    ]
 
 
 def _alfred_instruction(annotation: Mapping[str, Any], style: AlfredStyle) -> str:
@@ -387,7 +432,11 @@ def build_planner_datasets(
     if alfred is not None and (alfred / "train.jsonl.gz").is_file():
         trajectories = read_jsonl_gz(alfred / "train.jsonl.gz")
         for example in alfred_examples(
-            trajectories, ontology, report=report, high_descs_per_trajectory=high_descs_per_trajectory
+            trajectories,
+            ontology,
+            report=report,
+            high_descs_per_trajectory=high_descs_per_trajectory,
+            continuations=True,
         ):
             (dev if is_dev(example.example_id.split(":")[0]) else train).append(example)
         if (alfred / "valid_seen.jsonl.gz").is_file():

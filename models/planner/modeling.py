@@ -31,6 +31,7 @@ from transformers import (
 
 from models.planner.config import BartScratchArchitecture, MiniLMDecoderArchitecture
 from models.planner.plan_vocab import PlanVocabulary
+from models.planner.text import COMMANDER_MARK, PLANNER_MARKS
 from models.planner.tokenizer import end_of_target_id, minilm_model_dir
 
 PLANNER_META_FILE = "planner_meta.json"
@@ -163,6 +164,36 @@ def no_decay_parameters(model: PreTrainedModel) -> set[int]:
     """ids of parameters AdamW must not shrink: the encoder's (partly frozen) word embeddings."""
     encoder = model.get_encoder() if isinstance(model, EncoderDecoderModel) else None
     return {id(encoder.embeddings.word_embeddings.weight)} if encoder is not None else set()
+
+
+def missing_marks(tokenizer: PreTrainedTokenizerBase) -> list[str]:
+    """The planner marks a tokenizer does not hold as whole tokens (a checkpoint trained before a mark)."""
+    vocab = tokenizer.get_vocab()
+    return [mark for mark in PLANNER_MARKS if mark not in vocab]
+
+
+def add_missing_marks(planner: PlannerModel) -> list[str]:
+    """Give a checkpoint trained before a planner mark that mark, so a further schedule can teach it.
+
+    The mark becomes a special token with a new input embedding row that starts as <COM>'s: at first the
+    model reads "<INS> goal" as it read "<COM> goal", and training moves the row from there. Returns the
+    marks added (none for a checkpoint that has them all)."""
+    added = missing_marks(planner.tokenizer)
+    if not added:
+        return []
+    tokenizer = planner.tokenizer
+    tokenizer.add_special_tokens({"additional_special_tokens": added})
+    model = planner.model
+    owner: PreTrainedModel = model.get_encoder() if isinstance(model, EncoderDecoderModel) else model
+    before = len(tokenizer) - len(added)
+    owner.resize_token_embeddings(len(tokenizer), mean_resizing=False)
+    rows = owner.get_input_embeddings().weight
+    commander = tokenizer.convert_tokens_to_ids(COMMANDER_MARK)
+    assert isinstance(rows, torch.Tensor) and isinstance(commander, int), "one embedding matrix, one id"
+    with torch.no_grad():
+        rows[before:] = rows[commander]
+    owner.config.vocab_size = len(tokenizer)
+    return added
 
 
 def count_parameters(model: torch.nn.Module) -> int:

@@ -19,7 +19,14 @@ from typing import Literal
 import torch
 
 from models.planner.config import GenerationConfig
-from models.planner.modeling import PlannerModel, encoder_positions, load_planner_model, read_planner_meta
+from models.planner.modeling import (
+    PlannerModel,
+    encoder_positions,
+    load_planner_model,
+    missing_marks,
+    read_planner_meta,
+)
+from models.planner.text import COMMANDER_MARK, INSTRUCTION_MARK
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import Subgoal, SubgoalAction, SubgoalSyntaxError, parse_subgoals
 
@@ -138,6 +145,15 @@ class SubgoalGenerator:
         self.max_source_tokens = source_token_limit(planner)
         self.max_new_tokens = min(self.generation.max_new_tokens, target_token_limit(planner))
         self.navigate_bias = navigate_bias(planner, self.generation)
+        self.reads_instruction_mark = INSTRUCTION_MARK not in missing_marks(planner.tokenizer)
+
+    def readable(self, source: str) -> str:
+        """``source`` as this model was trained to read it: a checkpoint from before the <INS> mark was
+        trained on ALFRED goals as the commander's only turn, so it gets them that way (its tokenizer would
+        cut an unknown mark into pieces)."""
+        if self.reads_instruction_mark:
+            return source
+        return source.replace(INSTRUCTION_MARK, COMMANDER_MARK)
 
     @classmethod
     def from_directory(
@@ -165,7 +181,7 @@ class SubgoalGenerator:
         with TORCH_LOCK, torch.inference_mode():
             tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
             encoded = tokenizer(
-                list(sources),
+                [self.readable(source) for source in sources],
                 return_tensors="pt",
                 padding=True,
                 truncation=True,

@@ -26,6 +26,7 @@ from models.planner.config import Recipe, TrainConfig
 from models.planner.data import DatasetFiles, PlannerExample, file_fingerprint, read_examples
 from models.planner.modeling import (
     PlannerModel,
+    add_missing_marks,
     build_bart_scratch,
     build_minilm_encdec,
     count_parameters,
@@ -292,7 +293,8 @@ def train(
     """Train (or resume) ``recipe`` on ``dataset`` into ``run_dir``; stops early at ``stop_at_step``.
 
     ``init_from`` starts a new run from another run's weights and tokenizer (a second, longer schedule
-    after a first one ended) instead of from scratch; a run that already has ``last/`` resumes as usual.
+    after a first one ended) instead of from scratch, with any planner mark it lacks added
+    (``add_missing_marks``); a run that already has ``last/`` resumes as usual.
 
     Deterministic given ``recipe.train.seed``: the batch order is a function of (seed, epoch) and the RNG
     state travels with the checkpoint.
@@ -314,10 +316,13 @@ def train(
         saved_history = meta.get("history")
         history = list(saved_history) if isinstance(saved_history, list) else []
         LOG.info("resuming %s from step %d", run_dir, step)
+    elif init_from is not None:
+        planner = load_planner_model(init_from)
+        added = add_missing_marks(planner)
+        if added:
+            LOG.info("%s was trained before the marks %s; they start as <COM>", init_from, added)
     else:
-        planner = (
-            load_planner_model(init_from) if init_from is not None else build_planner(recipe, train_examples)
-        )
+        planner = build_planner(recipe, train_examples)
     _check_source_length(planner, config)
     model = planner.model
     model.train()

@@ -131,6 +131,55 @@ def test_a_tfd_game_continues_from_each_edh_cut_and_ends_with_nothing_left(tmp_p
     assert report.skipped["teach:tfd_continuation"] == 1  # the Cup history is not this game's
 
 
+def alfred_trajectory(task_id: str) -> dict[str, Any]:
+    """An ALFRED record as ``traj_data.json`` has it: walk, pick up a mug, walk, put it in the microwave."""
+    low = [
+        {"api_action": {"action": "MoveAhead"}},
+        {"api_action": {"action": "PickupObject", "objectId": "Mug|1|1|1"}},
+        {"api_action": {"action": "RotateLeft"}},
+        {"api_action": {"action": "OpenObject", "objectId": "Microwave|2|1|1"}},
+        {
+            "api_action": {
+                "action": "PutObject",
+                "objectId": "Mug|1|1|1",
+                "receptacleObjectId": "Microwave|2|1|1",
+            }
+        },
+        {"api_action": {"action": "CloseObject", "objectId": "Microwave|2|1|1"}},
+    ]
+    anns = [
+        {"task_desc": goal, "high_descs": ["Get the mug.", "Microwave it."]} for goal in ("Heat a mug.", "")
+    ]
+    return {
+        "task_id": task_id,
+        "task_type": "pick_heat_then_place_in_recep",
+        "plan": {"low_actions": low},
+        "turk_annotations": {"anns": anns},
+    }
+
+
+def test_an_alfred_goal_is_also_taught_with_part_and_all_of_its_plan_done() -> None:
+    plan = "Navigate Mug, Pickup Mug, Navigate Microwave, Open Microwave, Place Microwave, Close Microwave"
+    report = BuildReport()
+    examples = alfred_examples(
+        [alfred_trajectory("trial_1")], load_ontology(), report=report, continuations=True
+    )
+    whole = [e for e in examples if e.origin == "alfred:task_desc"]
+    assert [(e.source, e.target) for e in whole] == [("<INS> Heat a mug.", plan)]
+    cut, end = (e for e in examples if e.origin == "alfred:continuation")
+    assert cut.target and plan.endswith(cut.target)
+    done = plan.removesuffix(cut.target).rstrip(", ").split(", ")
+    interactions = ", ".join(s for s in done if not s.startswith("Navigate"))
+    assert cut.source == f"<INS> Heat a mug. <HIS> {interactions}"  # the annotation with a goal, then <HIS>
+    assert (
+        end.source == "<INS> Heat a mug. <HIS> Pickup Mug, Open Microwave, Place Microwave, Close Microwave"
+    )
+    assert end.target == ""
+    assert report.kept["alfred:continuation"] == 2
+    again = alfred_examples([alfred_trajectory("trial_1")], load_ontology(), continuations=True)
+    assert again == examples  # the same cut in every build
+
+
 @pytest.mark.data
 def test_alfred_valid_seen_gives_one_example_per_annotation_and_style(shared_data_dir: Path) -> None:
     trajectories = list(read_jsonl_gz(shared_data_dir / "alfred" / "valid_seen.jsonl.gz"))
@@ -141,7 +190,7 @@ def test_alfred_valid_seen_gives_one_example_per_annotation_and_style(shared_dat
         "alfred:high_descs": annotations,
     }
     first = next(e for e in examples if e.example_id.startswith(trajectories[0]["task_id"]))
-    assert first.source == "<COM> look at the clock under the lamp"
+    assert first.source == "<INS> look at the clock under the lamp"
     assert first.target == "Navigate AlarmClock, Pickup AlarmClock, Navigate DeskLamp, ToggleOn DeskLamp"
     assert first.task_type == "look_at_obj_in_light"
 

@@ -54,7 +54,14 @@ def test_tfd_input_has_no_history_mark() -> None:
     )
 
 
-def test_an_instruction_is_the_commanders_only_turn() -> None:
+def test_an_alfred_goal_is_marked_as_an_instruction_not_a_commander_turn() -> None:
     assert format_instruction("Put a clean mug in the coffee machine.") == (
-        "<COM> Put a clean mug in the coffee machine."
+        "<INS> Put a clean mug in the coffee machine."
     )
+
+
+def test_an_instruction_session_re_plans_with_the_goal_then_the_dialogue_then_the_history() -> None:
+    done = [Subgoal(A.NAVIGATE, "Mug"), Subgoal(A.PICKUP, "Mug")]
+    text = format_planner_input([("Commander", "the mug is in the sink")], done, "Put a mug <HIS> away.")
+    assert text == "<INS> Put a mug away. <COM> the mug is in the sink <HIS> Pickup Mug"
+    assert format_instruction("Put a mug away.", done) == "<INS> Put a mug away. <HIS> Pickup Mug"

