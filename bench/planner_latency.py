@@ -26,6 +26,7 @@ from agent.model_planner import ModelPlanner
 from agent.planning import DialogueTurn, PlannerConfig, PlanningContext
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.predict import SubgoalGenerator
+from models.planner.text import format_planner_input
 from symbolic.data_dir import REPO_ROOT
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import parse_subgoals
@@ -84,11 +85,12 @@ def main() -> int:
             outcome = planner.plan(context)
             plan_ms.append((time.perf_counter() - start) * 1000)
             lengths.append(len(outcome.plan))
-    sources = [case.instruction or case.dialogue[0].text for case in cases]
     generate_ms = []
-    for text in sources:
+    for context in cases:  # the very source the planner gives the model
+        turns = [(turn.speaker, turn.text) for turn in context.dialogue]
+        source = format_planner_input(turns, context.history_subgoals, context.instruction)
         start = time.perf_counter()
-        generator.generate_texts([f"<COM> {text}"])
+        generator.generate_texts([source])
         generate_ms.append((time.perf_counter() - start) * 1000)
     median = statistics.median(plan_ms)
     result = {

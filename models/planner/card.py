@@ -72,9 +72,10 @@ def render_model_card(
         "# Language planner (default checkpoint)",
         "",
         "The JARVIS seed's Language Planning Module (Sec. 3, appendix A): dialogue turns joined with "
-        "`<COM>`/`<FOL>`, history subgoals (without Navigate) after `<HIS>`, generating the future subgoals "
-        "in DESIGN.md §5's text form with a beam of 4. Every output is validated against the ontology "
-        "(`models/planner/predict.py`) and repaired by `symbolic.repair` in the agent.",
+        "`<COM>`/`<FOL>` (an ALFRED goal after `<INS>`), history subgoals (without Navigate) after `<HIS>`, "
+        "generating the future subgoals in DESIGN.md §5's text form with a beam of 4. Every output is "
+        "validated against the ontology (`models/planner/predict.py`) and repaired by `symbolic.repair` in "
+        "the agent.",
         "",
         "## Model",
         "",
@@ -85,17 +86,18 @@ def render_model_card(
         + (
             "byte-level BPE trained on the training set's inputs and targets, lower-cased"
             if meta.get("recipe") == "bart-scratch"
-            else "MiniLM's uncased WordPiece cut to its common pieces and the corpus's, with the three "
-            "marks added; the decoder writes whole plan words (`plan_vocab.json`: the nine actions and the "
-            "ontology's types) held to the action/type grammar in beam search"
+            else "MiniLM's uncased WordPiece cut to its common pieces and the corpus's, with the "
+            "planner's marks added; the decoder writes whole plan words (`plan_vocab.json`: the nine "
+            "actions and the ontology's types) held to the action/type grammar in beam search"
         ),
         "",
         "## Data",
         "",
         f"- {meta.get('train_examples'):,} training examples (file sha256 `{meta.get('data_fingerprint')}`): "
-        "ALFRED train `task_desc` and joined `high_descs` -> subgoals of `plan.low_actions`, and the "
-        "harness's generated TEACh-format EDH/TfD train instances; 3% of train trajectories/games held out "
-        "as dev. ALFRED valid_seen and generated valid_unseen never enter training.",
+        "ALFRED train `task_desc` and joined `high_descs` -> subgoals of `plan.low_actions` (each "
+        "trajectory's goal also with part and with all of its plan done after `<HIS>`), and the harness's "
+        "generated TEACh-format EDH/TfD train instances; 3% of train trajectories/games held out as dev. "
+        "ALFRED valid_seen and generated valid_unseen never enter training.",
         "",
         "## Training",
         "",
@@ -111,7 +113,8 @@ def render_model_card(
         "",
         "## Evaluation",
         "",
-        f"Beam {evaluation.get('num_beams')}; written by `python -m models.planner evaluate` to "
+        f"Beam {evaluation.get('num_beams')}{_bias_phrase(evaluation.get('navigate_bias'))}; written by "
+        "`python -m models.planner evaluate` to "
         f"`{EVALUATION_FILE}` beside this card. Exact match compares whole subgoal sequences; the "
         "normalised one first drops Open/Close of a container an object is only fetched from (language "
         "cannot know where the expert found it); the last ignores Navigate (written only where the expert "
@@ -186,6 +189,11 @@ def _compared_model(evaluation: Mapping[str, Any]) -> str:
     if evaluation.get("recipe") is None:
         return f"`{evaluation.get('checkpoint')}`"
     return f"The `{evaluation['recipe']}` recipe after {evaluation['step']:,} steps"
+
+
+def _bias_phrase(bias: object) -> str:
+    """The Navigate bias the evaluation decoded with, when it had one (``calibrate`` chose it)."""
+    return f" with the Navigate bias of {bias} that `calibrate` chose" if bias else ""
 
 
 def _rounded(value: object) -> object:

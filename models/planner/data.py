@@ -418,8 +418,9 @@ def build_planner_datasets(
     teach_repeat: int = 1,
     high_descs_per_trajectory: int | None = None,
 ) -> BuildReport:
-    """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it) and TEACh-format instances
-    (when ``teach_root`` is given). Valid splits never enter training; ``teach_repeat`` repeats the TEACh
+    """Write train/dev/evaluation files from ALFRED (when ``data_dir`` has it; train trajectories also as
+    continuations, ``alfred_continuations``) and TEACh-format instances (when ``teach_root`` is given).
+    Valid splits never enter training; ``teach_repeat`` repeats the TEACh
     training examples so a few thousand dialogues are not drowned by ALFRED's 42k instructions, except those
     with nothing left to do (a finished game), which are kept once: repeated, a schedule trained on them
     planned nothing for a request with work left (the planner's model card);
