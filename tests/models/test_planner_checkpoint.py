@@ -49,6 +49,15 @@ def test_the_model_card_quotes_the_written_evaluation() -> None:
         assert f"{report['overall']['exact_match']:.1%}" in card
 
 
+def test_the_default_checkpoint_reads_the_instruction_mark(generator: SubgoalGenerator) -> None:
+    """Trained with ``<INS>``, it is given ALFRED goals under their own mark, not rewritten as a commander's
+    turn (the fallback for checkpoints trained before the mark)."""
+    assert generator.reads_instruction_mark
+    source = format_instruction("Put a cell phone on the bed.")
+    assert source.startswith("<INS>")
+    assert generator.readable(source) == source
+
+
 def test_an_alfred_instruction_becomes_its_plan(generator: SubgoalGenerator) -> None:
     prediction = generator.predict(format_instruction("Put a cell phone on the bed."))
     assert list(prediction.subgoals) == [
