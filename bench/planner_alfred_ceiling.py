@@ -32,18 +32,13 @@ from pathlib import Path
 import torch
 
 from models.planner import DEFAULT_CHECKPOINT_DIR
-from models.planner.data import read_jsonl_gz
+from models.planner.data import alfred_plan, read_jsonl_gz
 from models.planner.evaluate import drop_fetch_container_open_close
 from models.planner.predict import SubgoalGenerator
 from models.planner.text import format_instruction
 from symbolic.data_dir import require_data_dir
 from symbolic.ontology import Ontology, load_ontology
-from symbolic.subgoals import (
-    SubgoalSyntaxError,
-    format_subgoals,
-    parse_subgoals,
-    subgoals_from_alfred_low_actions,
-)
+from symbolic.subgoals import format_subgoals
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planner_alfred_ceiling.json"
 BAR_EXACT, BAR_NORMALISED = 0.60, 0.75
@@ -68,10 +63,8 @@ def _words(sentence: str) -> str:
 def tasks(path: Path, ontology: Ontology) -> Iterator[Task]:
     for record in read_jsonl_gz(path):
         try:
-            plan = parse_subgoals(
-                format_subgoals(subgoals_from_alfred_low_actions(record["plan"]["low_actions"])), ontology
-            )
-        except (SubgoalSyntaxError, ValueError):
+            plan = alfred_plan(record, ontology)
+        except ValueError:  # a plan outside the ontology (SubgoalSyntaxError, UnknownObjectType)
             continue
         p = record["pddl_params"]
         parameters = (

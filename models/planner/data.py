@@ -80,6 +80,14 @@ def canonical_plan(plan: str | Sequence[object], ontology: Ontology) -> str:
     return format_subgoals(parse_subgoals(plan, ontology))
 
 
+def alfred_plan(trajectory: Mapping[str, Any], ontology: Ontology) -> list[Subgoal]:
+    """The subgoals of an ALFRED trajectory's ``plan.low_actions`` (DESIGN.md §5's rule) with canonical
+    type names; raises ``SubgoalSyntaxError`` or ``UnknownObjectType`` for a plan outside the ontology."""
+    return parse_subgoals(
+        format_subgoals(subgoals_from_alfred_low_actions(trajectory["plan"]["low_actions"])), ontology
+    )
+
+
 def read_jsonl_gz(path: Path) -> Iterator[dict[str, Any]]:
     with gzip.open(path, "rt", encoding="utf-8") as lines:
         for line in lines:
@@ -107,16 +115,14 @@ def alfred_examples(
     for trajectory in trajectories:
         task_id = str(trajectory["task_id"])
         try:
-            target = format_subgoals(subgoals_from_alfred_low_actions(trajectory["plan"]["low_actions"]))
-            target = canonical_plan(target, ontology)
+            plan = alfred_plan(trajectory, ontology)
         except (SubgoalSyntaxError, UnknownObjectType) as error:
             report.skip("alfred", f"{task_id}: {error}")
             continue
+        target = format_subgoals(plan)
         annotations = trajectory["turk_annotations"]["anns"]
         if continuations:
-            for example in alfred_continuations(
-                task_id, annotations, target, str(trajectory["task_type"]), ontology
-            ):
+            for example in alfred_continuations(task_id, annotations, plan, str(trajectory["task_type"])):
                 examples.append(example)
                 report.kept[example.origin] += 1
         for number, annotation in enumerate(annotations):
@@ -144,9 +150,8 @@ def alfred_examples(
 def alfred_continuations(
     task_id: str,
     annotations: Sequence[Mapping[str, Any]],
-    plan_text: str,
+    plan: Sequence[Subgoal],
     task_type: str,
-    ontology: Ontology,
 ) -> list[PlannerExample]:
     """An instruction session re-plans when its plan runs out or fails, with the subgoals done after <HIS>
     (``text.format_instruction``). Two such inputs per trajectory: the goal of one annotation with the plan
@@ -155,7 +160,6 @@ def alfred_continuations(
     every build makes the same ones."""
     goals = [str(a.get("task_desc", "")).strip() for a in annotations]
     goals = [goal for goal in goals if goal]
-    plan = parse_subgoals(plan_text, ontology)
     interactions = [i for i, subgoal in enumerate(plan) if subgoal.action is not SubgoalAction.NAVIGATE]
     if not goals or not interactions:
         return []
