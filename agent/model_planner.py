@@ -68,6 +68,12 @@ def validation_events(prediction: PlanPrediction) -> list[RepairEvent]:
     ]
 
 
+def planner_source(context: PlanningContext) -> str:
+    """The text the model is given for a context: its turns, instruction and history subgoals."""
+    turns = [(turn.speaker, turn.text) for turn in context.dialogue]
+    return format_planner_input(turns, context.history_subgoals, context.instruction)
+
+
 def _truncated(plan: list[Subgoal], limit: int, stage: str) -> tuple[list[Subgoal], list[RepairEvent]]:
     if len(plan) <= limit:
         return plan, []
@@ -105,10 +111,9 @@ class ModelPlanner:
         command = latest_command(context, self.ontology)
         if command is not None:
             return self._follow(command, context)
-        turns = [(turn.speaker, turn.text) for turn in context.dialogue]
-        if not (context.instruction or "").strip() and not any(text.strip() for _, text in turns):
+        if not (context.instruction or "").strip() and not any(t.text.strip() for t in context.dialogue):
             return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
-        source = format_planner_input(turns, context.history_subgoals, context.instruction)
+        source = planner_source(context)
         prediction = self.generator.predict(source)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")

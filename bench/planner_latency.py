@@ -22,11 +22,10 @@ from pathlib import Path
 
 import torch
 
-from agent.model_planner import ModelPlanner
+from agent.model_planner import ModelPlanner, planner_source
 from agent.planning import DialogueTurn, PlannerConfig, PlanningContext
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.predict import SubgoalGenerator
-from models.planner.text import format_planner_input
 from symbolic.data_dir import REPO_ROOT
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import parse_subgoals
@@ -86,9 +85,8 @@ def main() -> int:
             plan_ms.append((time.perf_counter() - start) * 1000)
             lengths.append(len(outcome.plan))
     generate_ms = []
-    for context in cases:  # the very source the planner gives the model
-        turns = [(turn.speaker, turn.text) for turn in context.dialogue]
-        source = format_planner_input(turns, context.history_subgoals, context.instruction)
+    for context in cases:
+        source = planner_source(context)  # the very text the planner gives the model
         start = time.perf_counter()
         generator.generate_texts([source])
         generate_ms.append((time.perf_counter() - start) * 1000)
