@@ -22,23 +22,27 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from app.settings import Settings
 from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.evaluate import EvalConfig, evaluate
 from harness.runner import DEFAULT_CAMERA, service_url
+from harness.splits import Split
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planner_tfd.json"
-CHECKPOINT_META = (
-    Path(__file__).resolve().parents[1] / "models" / "checkpoints" / "planner" / "planner_meta.json"
-)
-SPLIT = "valid_unseen"
+DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[1] / "models" / "checkpoints" / "planner"
+SPLIT: Split = "valid_unseen"
 SR_BAR = 0.60  # the planner issue's bar on SR with the model planner and oracle perception
 
 
 def checkpoint_summary() -> dict[str, Any]:
-    """Which planner checkpoint ran: its recipe, size, training steps and dev loss."""
-    meta = json.loads(CHECKPOINT_META.read_text(encoding="utf-8"))
+    """Which planner checkpoint ran (the service's: ``JARVIS_PLANNER_CHECKPOINT`` or the shipped one): its
+    recipe, size, training steps and dev loss."""
+    folder = Settings().planner_checkpoint or DEFAULT_CHECKPOINT
+    meta = json.loads((folder / "planner_meta.json").read_text(encoding="utf-8"))
     keys = ("recipe", "architecture", "parameters", "step", "dev_loss", "data_fingerprint", "navigate_bias")
-    return {key: meta.get(key) for key in keys}
+    return {"folder": "default" if folder == DEFAULT_CHECKPOINT else str(folder)} | {
+        key: meta.get(key) for key in keys
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -7,7 +7,8 @@ form. Sources:
   rule (``subgoals_from_alfred_low_actions``).
 - TEACh-format instances (the real ones or those the harness writes): EDH ``dialog_history`` +
   ``history_subgoals`` -> ``future_subgoals``; TfD the whole dialogue -> all subgoals (the seed's Eq. (2));
-  TfD continued, the whole dialogue + the subgoals done so far -> the rest (how a session re-plans).
+  TfD continued, the whole dialogue + the subgoals done so far -> the rest (how a session re-plans);
+  the commander's first request alone, greeting and frame taken off ("make coffee"), -> the plan or the rest.
 - Hand-written dialogues (``tests/data/handwritten_dialogues.jsonl``) in words the generator never uses.
 
 Every plan is parsed through the ontology so targets use canonical type names; examples whose plan names
@@ -19,6 +20,7 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
+import re
 from collections import Counter
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -266,6 +268,53 @@ def teach_examples(
     return examples
 
 
+@dataclass(frozen=True)
+class _TfdGame:
+    """A game's whole dialogue and plan, and the history of each of its EDH cuts that is a prefix of it."""
+
+    stem: str
+    task_type: str
+    turns: list[tuple[str, str]]
+    plan: list[Subgoal]
+    cuts: list[tuple[str, list[Subgoal]]]  # (suffix of the example id, history subgoals)
+
+
+def _tfd_games(
+    root: Path, split: str, ontology: Ontology, origin: str, report: BuildReport
+) -> list[_TfdGame]:
+    """Every TfD game of ``split`` with its EDH cuts; unreadable files and cuts whose history is not a
+    prefix of the game's plan are skipped under ``origin``."""
+    games: list[_TfdGame] = []
+    for path in teach_instance_files(root, split, ("tfd",)):
+        try:
+            instance = json.loads(path.read_text(encoding="utf-8"))
+            game_id = str(instance.get("game_id") or path.stem.split(".")[0])
+            plan = parse_subgoals(instance.get("future_subgoals") or [], ontology)
+        except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
+            report.skip(origin, f"{path.name}: {error}")
+            continue
+        cuts: list[tuple[str, list[Subgoal]]] = []
+        for edh_path in sorted((root / "edh_instances" / split).glob(f"{game_id}.edh*.json")):
+            suffix = f"{path.stem}.{edh_path.stem.split('.')[-1]}"
+            try:
+                history = parse_subgoals(
+                    json.loads(edh_path.read_text(encoding="utf-8")).get("history_subgoals") or [], ontology
+                )
+            except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
+                report.skip(origin, f"{edh_path.name}: {error}")
+                continue
+            if not history:
+                continue
+            if plan[: len(history)] != history:
+                report.skip(origin, f"{suffix}: its history is not a prefix of the plan")
+                continue
+            cuts.append((suffix, history))
+        turns = [(str(speaker), str(text)) for speaker, text in instance.get("dialog_history", [])]
+        task_type = teach_task_type(instance, root, split, game_id)
+        games.append(_TfdGame(path.stem, task_type, turns, plan, cuts))
+    return games
+
+
 def teach_continuations(
     root: Path, split: str, ontology: Ontology, report: BuildReport | None = None
 ) -> list[PlannerExample]:
@@ -280,39 +329,13 @@ def teach_continuations(
     work remains, or a short request with a history reads as finished.
     """
     report = report if report is not None else BuildReport()
-    tfd: dict[str, tuple[list[tuple[str, str]], list[Subgoal], str]] = {}
-    task_types: dict[str, str] = {}
-    for path in teach_instance_files(root, split, ("tfd",)):
-        try:
-            instance = json.loads(path.read_text(encoding="utf-8"))
-            game_id = str(instance.get("game_id") or path.stem.split(".")[0])
-            plan = parse_subgoals(instance.get("future_subgoals") or [], ontology)
-        except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
-            report.skip("teach:tfd_continuation", f"{path.name}: {error}")
-            continue
-        turns = [(str(speaker), str(text)) for speaker, text in instance.get("dialog_history", [])]
-        tfd[game_id] = (turns, plan, path.stem)
-        task_types[game_id] = teach_task_type(instance, root, split, game_id)
     examples: list[PlannerExample] = []
-    for game_id, (turns, plan, stem) in tfd.items():
-        cuts: list[tuple[str, list[Subgoal]]] = [(f"{stem}.end", plan)]
-        for path in sorted((root / "edh_instances" / split).glob(f"{game_id}.edh*.json")):
-            try:
-                instance = json.loads(path.read_text(encoding="utf-8"))
-                history = parse_subgoals(instance.get("history_subgoals") or [], ontology)
-            except (json.JSONDecodeError, SubgoalSyntaxError, UnknownObjectType) as error:
-                report.skip("teach:tfd_continuation", f"{path.name}: {error}")
-                continue
-            if history:
-                cuts.append((f"{stem}.{path.stem.split('.')[-1]}", history))
-        brief = _through_first_request(turns)
-        for suffix, history in cuts:
-            if plan[: len(history)] != history:
-                report.skip("teach:tfd_continuation", f"{suffix}: its history is not a prefix of the plan")
-                continue
-            left = plan[len(history) :]
-            variants = [("continued", turns, "teach:tfd_continuation")]
-            if left and brief != turns:
+    for game in _tfd_games(root, split, ontology, "teach:tfd_continuation", report):
+        brief = _through_first_request(game.turns)
+        for suffix, history in [(f"{game.stem}.end", game.plan), *game.cuts]:
+            left = game.plan[len(history) :]
+            variants = [("continued", game.turns, "teach:tfd_continuation")]
+            if left and brief != game.turns:
                 variants.append(("brief", brief, "teach:brief_continuation"))
             for name, said, origin in variants:
                 examples.append(
@@ -320,7 +343,7 @@ def teach_continuations(
                         example_id=f"{suffix}.{name}",
                         source=format_planner_input(said, history),
                         target=format_subgoals(left),
-                        task_type=task_types[game_id],
+                        task_type=game.task_type,
                         origin=origin,
                     )
                 )
@@ -328,16 +351,89 @@ def teach_continuations(
     return examples
 
 
+def teach_bare_requests(
+    root: Path, split: str, ontology: Ontology, report: BuildReport | None = None, with_cuts: bool = True
+) -> list[PlannerExample]:
+    """The commander's first request alone, as a bare imperative (``bare_request``), -> the whole plan; and
+    with ``with_cuts``, after each EDH cut's history -> what is left (origin ``teach:bare_request``).
+
+    A curl user or a commander bot types "make a cup of coffee" and nothing else; the generated games
+    never open that way, and the model planned such a request as ALFRED's "chill a mug, put it in the
+    coffee machine". Games whose request has no greeting or frame to take off give no example.
+    """
+    report = report if report is not None else BuildReport()
+    examples: list[PlannerExample] = []
+    for game in _tfd_games(root, split, ontology, "teach:bare_request", report):
+        bare = bare_request(game.turns)
+        if bare is None:
+            report.skip("teach:bare_request", f"{game.stem}: no greeting or frame to take off its request")
+            continue
+        start: list[tuple[str, list[Subgoal]]] = [(f"{game.stem}.start", [])]
+        cuts = start + (game.cuts if with_cuts else [])
+        for suffix, history in cuts:
+            examples.append(
+                PlannerExample(
+                    example_id=f"{suffix}.bare",
+                    source=format_planner_input([("Commander", bare)], history),
+                    target=format_subgoals(game.plan[len(history) :]),
+                    task_type=game.task_type,
+                    origin="teach:bare_request",
+                )
+            )
+            report.kept["teach:bare_request"] += 1
+    return examples
+
+
 REQUEST_MIN_WORDS = 5
 """A commander turn this long or longer states the task; shorter ones are greetings ("How's it going?")."""
+
+_GREETING = re.compile(
+    r"^(?:hi|hello|hey|howdy|good (?:morning|afternoon|evening))(?: there)?\b[\s,.!]*", re.I
+)
+_FRAME = re.compile(
+    r"^(?:today we need to|today's task:|today|we need to|our task is to|the task is to|can you|could you"
+    r"|please|let's|i need you to|we're going to)\s+",
+    re.I,
+)
+_TRAILING_TODAY = re.compile(r"\s+today(?=[.!?]|$)", re.I)
+_SMALL_TALK = re.compile(r"^(?:how\b|you doing\b)", re.I)
+
+
+def _is_request(speaker: str, text: str) -> bool:
+    """A commander turn that states the task: long enough, and not "Hi, how are you doing?"."""
+    if speaker_mark(speaker) != COMMANDER_MARK or len(text.split()) < REQUEST_MIN_WORDS:
+        return False
+    return _SMALL_TALK.match(_GREETING.sub("", text.strip(), count=1)) is None
 
 
 def _through_first_request(turns: Sequence[tuple[str, str]]) -> list[tuple[str, str]]:
     """The turns up to and including the commander's first request (all of them if there is none)."""
     for index, (speaker, text) in enumerate(turns):
-        if speaker_mark(speaker) == COMMANDER_MARK and len(text.split()) >= REQUEST_MIN_WORDS:
+        if _is_request(speaker, text):
             return list(turns[: index + 1])
     return list(turns)
+
+
+def bare_request(turns: Sequence[tuple[str, str]]) -> str | None:
+    """The commander's first request as a bare imperative: its greeting and its frame ("today", "our task
+    is to", "can you ...?") taken off ("Hi there! Today make coffee. First ..." -> "make coffee. First ...").
+
+    Why: a user's first message to the service is often just "make a cup of coffee", while the generated
+    commanders open with a greeting or a frame in all but a handful of games; without examples of the bare
+    form the model read it as an ALFRED goal. None when there is no request or nothing to take off.
+    """
+    for speaker, text in turns:
+        if not _is_request(speaker, text):
+            continue
+        bare = _GREETING.sub("", text.strip(), count=1)
+        framed = _FRAME.match(bare)
+        if framed is not None:
+            bare = bare[framed.end() :]
+            if framed.group(0).lower().startswith(("can", "could")):
+                bare = bare.replace("?", ".", 1)
+        bare = _TRAILING_TODAY.sub("", bare, count=1).strip()
+        return bare if bare and bare != text.strip() else None
+    return None
 
 
 def handwritten_examples(path: Path, ontology: Ontology) -> list[PlannerExample]:
@@ -451,6 +547,7 @@ def build_planner_datasets(
     if teach_root is not None:
         teach_train = teach_examples(teach_root, "train", ontology, report=report)
         teach_train += teach_continuations(teach_root, "train", ontology, report=report)
+        teach_train += teach_bare_requests(teach_root, "train", ontology, report=report)
         for example in teach_train:
             if is_dev(example.example_id.split(".")[0]):
                 dev.append(example)
@@ -461,6 +558,9 @@ def build_planner_datasets(
                 examples = teach_examples(teach_root, split, ontology, kinds=(kind,), report=report)
                 if examples:
                     evaluation[f"teach_{split}_{kind}"] = examples
+            bare = teach_bare_requests(teach_root, split, ontology, report=report, with_cuts=False)
+            if bare:
+                evaluation[f"teach_{split}_bare"] = bare
     if not train:
         raise FileNotFoundError(
             f"no training data: ALFRED not found under {data_dir} and no TEACh instances under {teach_root}"

@@ -14,11 +14,13 @@ from models.planner.data import (
     BuildReport,
     DatasetFiles,
     alfred_examples,
+    bare_request,
     build_planner_datasets,
     handwritten_examples,
     is_dev,
     read_examples,
     read_jsonl_gz,
+    teach_bare_requests,
     teach_continuations,
     teach_instance_example,
 )
@@ -291,3 +293,64 @@ def test_a_cut_with_work_left_is_also_taught_after_the_first_request_alone(tmp_p
     assert brief.source == "<COM> hi there <COM> please make me a cup of coffee <HIS> Pickup Mug"
     assert brief.target == examples["abc_0001.tfd0.edh2.continued"].target
     assert (brief.origin, report.kept["teach:brief_continuation"]) == ("teach:brief_continuation", 1)
+
+
+@pytest.mark.parametrize(
+    ("turns", "bare"),
+    [
+        (
+            [
+                ("Driver", "hi what should I do?"),
+                ("Commander", "Hello there, today we need to make a salad. First slice"),
+            ],
+            "make a salad. First slice",
+        ),
+        (
+            [("Commander", "hey! can you make some toast on a plate? first the plate goes on the counter")],
+            "make some toast on a plate. first the plate goes on the counter",
+        ),
+        (
+            [
+                ("Commander", "Hi, how are you doing"),
+                ("Driver", "good"),
+                ("Commander", "let's water the plant today."),
+            ],
+            "water the plant.",
+        ),
+        ([("Commander", "Good morning! Our task is to boil a potato")], "boil a potato"),
+        ([("Commander", "make a cup of coffee in the mug")], None),  # already bare: no second copy
+        ([("Driver", "what should I do today?"), ("Commander", "hi there")], None),  # no request at all
+    ],
+)
+def test_the_first_request_loses_its_greeting_and_frame(
+    turns: list[tuple[str, str]], bare: str | None
+) -> None:
+    assert bare_request(turns) == bare
+
+
+def test_a_bare_request_is_taught_alone_and_after_each_cut(tmp_path: Path) -> None:
+    """What a curl user types ("make me a cup of coffee") plans the whole game, and after a cut's history
+    the rest of it; the evaluation sets take only the first."""
+    root = tmp_path / "teach"
+    for kind in ("edh", "tfd"):
+        (root / f"{kind}_instances" / "train").mkdir(parents=True)
+    plan = ["Navigate", "Mug", "Pickup", "Mug", "Navigate", "CoffeeMachine", "Place", "CoffeeMachine"]
+    turns = [["Driver", "hello, what's my task?"], ["Commander", "hi there, please make me a cup of coffee"]]
+    tfd = {"game_id": "abc_0001", "dialog_history": turns, "future_subgoals": plan}
+    (root / "tfd_instances" / "train" / "abc_0001.tfd0.json").write_text(json.dumps(tfd))
+    (root / "edh_instances" / "train" / "abc_0001.edh2.json").write_text(json.dumps(edh_instance()))
+    report = BuildReport()
+    examples = {e.example_id: e for e in teach_bare_requests(root, "train", load_ontology(), report)}
+    assert {eid: (e.source, e.target) for eid, e in examples.items()} == {
+        "abc_0001.tfd0.start.bare": (
+            "<COM> make me a cup of coffee",
+            "Navigate Mug, Pickup Mug, Navigate CoffeeMachine, Place CoffeeMachine",
+        ),
+        "abc_0001.tfd0.edh2.bare": (
+            "<COM> make me a cup of coffee <HIS> Pickup Mug",
+            "Navigate CoffeeMachine, Place CoffeeMachine",
+        ),
+    }
+    assert report.kept["teach:bare_request"] == 2
+    alone = teach_bare_requests(root, "train", load_ontology(), with_cuts=False)
+    assert [e.example_id for e in alone] == ["abc_0001.tfd0.start.bare"]
