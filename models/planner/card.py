@@ -96,7 +96,9 @@ def render_model_card(
         f"- {meta.get('train_examples'):,} training examples (file sha256 `{meta.get('data_fingerprint')}`): "
         "ALFRED train `task_desc` and joined `high_descs` -> subgoals of `plan.low_actions` (each "
         "trajectory's goal also with part and with all of its plan done after `<HIS>`), and the harness's "
-        "generated TEACh-format EDH/TfD train instances; 3% of train trajectories/games held out as dev. "
+        "generated TEACh-format EDH/TfD train instances (each game's first request also alone, its "
+        "greeting and frame taken off, as a curl user types it); 3% of train trajectories/games held out "
+        "as dev. "
         "ALFRED valid_seen and generated valid_unseen never enter training.",
         "",
         "## Training",

@@ -46,6 +46,17 @@ def test_a_coffee_dialogue_becomes_a_coffee_plan(planner: ModelPlanner) -> None:
     assert Subgoal(A.TOGGLE_ON, "CoffeeMachine") in outcome.plan[place:]
 
 
+@pytest.mark.parametrize("request_text", ["make a cup of coffee", "Make coffee."])
+def test_a_bare_request_alone_makes_coffee(planner: ModelPlanner, request_text: str) -> None:
+    """What a curl user types first, with nothing before it; the planner once read it as ALFRED's goal
+    and chilled the mug in the fridge, never switching the machine on."""
+    outcome = planner.plan(PlanningContext(dialogue=(DialogueTurn("Commander", request_text),)))
+    assert Subgoal(A.PICKUP, "Mug") in outcome.plan
+    assert Subgoal(A.PLACE, "Fridge") not in outcome.plan
+    place = outcome.plan.index(Subgoal(A.PLACE, "CoffeeMachine"))
+    assert Subgoal(A.TOGGLE_ON, "CoffeeMachine") in outcome.plan[place:]
+
+
 def test_a_dialogue_with_history_plans_only_the_future(planner: ModelPlanner) -> None:
     context = PlanningContext(
         dialogue=(
