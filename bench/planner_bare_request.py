@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.planner_tfd import SPLIT, checkpoint_summary
+from bench.planner_tfd import SPLIT, checkpoint_summary, write_report
 from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.episodes.generate import GenerateConfig, generate
 from harness.evaluate import EvalConfig, evaluate
@@ -116,12 +116,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "machine": platform.platform(),
         "wall_s": round(time.perf_counter() - started, 1),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n")
-    print(f"SR {summary['sr']:.3f} GC {summary['gc']:.3f} (n={summary['n']}) with bare requests")
-    for task, sr in sorted(summary["per_task_sr"].items()):
-        print(f"  {task:<28}{sr:.3f}")
-    print(f"wrote {RESULTS}")
+    write_report(
+        RESULTS,
+        report,
+        f"SR {summary['sr']:.3f} GC {summary['gc']:.3f} (n={summary['n']}) with bare requests",
+    )
     return 0
 
 

@@ -80,14 +80,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         "machine": platform.platform(),
         "wall_s": round(time.perf_counter() - started, 1),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n")
     verdict = "met" if report["bar"]["met"] else "NOT met"
-    print(f"SR {summary['sr']:.3f} (n={summary['n']}) vs bar {SR_BAR}: {verdict}")
-    for task, sr in sorted(summary["per_task_sr"].items()):
-        print(f"  {task:<28}{sr:.3f}")
-    print(f"wrote {RESULTS}")
+    write_report(RESULTS, report, f"SR {summary['sr']:.3f} (n={summary['n']}) vs bar {SR_BAR}: {verdict}")
     return 0
+
+
+def write_report(path: Path, report: dict[str, Any], headline: str) -> None:
+    """Write a planner SR bench's JSON and print its headline and SR per task."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report, indent=2) + "\n")
+    print(headline)
+    for task, sr in sorted(report["result"]["per_task_sr"].items()):
+        print(f"  {task:<28}{sr:.3f}")
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
