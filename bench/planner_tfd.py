@@ -90,8 +90,10 @@ def write_report(path: Path, report: dict[str, Any], headline: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(report, indent=2) + "\n")
     print(headline)
-    for task, sr in sorted(report["result"]["per_task_sr"].items()):
-        print(f"  {task:<28}{sr:.3f}")
+    per_task = sorted(report["result"]["per_task_sr"].items())
+    width = max((len(task) for task, _ in per_task), default=0) + 2
+    for task, sr in per_task:
+        print(f"  {task:<{width}}{sr:.3f}")
     print(f"wrote {path}")
 
 
