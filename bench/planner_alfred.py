@@ -18,14 +18,13 @@ types in turn); writes ``bench/results/planner_alfred.json``. Needs the shared d
 
 from __future__ import annotations
 
-import argparse
 import platform
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from bench.planner_tfd import checkpoint_summary, write_report
+from bench.planner_tfd import checkpoint_summary, episode_bench_parser, write_report
 from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.evaluate import ALFRED_CAMERA_SIDE, EvalConfig, episode_for, evaluate, finished_records
 from harness.runner import service_url
@@ -75,15 +74,9 @@ def changed_episodes(runs: Path, n: int) -> dict[str, list[dict[str, Any]]]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.planner_alfred", description=__doc__.splitlines()[0]
+    parser = episode_bench_parser(
+        "planner_alfred", __doc__, 70, "episodes (slots take the 7 task types in turn)"
     )
-    parser.add_argument("--n", type=int, default=70, help="episodes (slots take the 7 task types in turn)")
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument(
-        "--runs", type=Path, default=Path("runs/bench/planner_alfred"), help="resumable run folder"
-    )
-    parser.add_argument("--url", help="a running service (default: start one)")
     args = parser.parse_args(argv)
 
     commit = current_commit()  # the code the service starts with

@@ -17,7 +17,6 @@ runs with ``JARVIS_PLANNER_CHECKPOINT=<dir>`` (the service reads it; the report 
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
 import re
@@ -26,7 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.planner_tfd import SPLIT, checkpoint_summary, write_report
+from bench.planner_tfd import SPLIT, checkpoint_summary, episode_bench_parser, write_report
 from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.episodes.generate import GenerateConfig, generate
 from harness.evaluate import EvalConfig, evaluate
@@ -67,16 +66,8 @@ def write_bare_instances(teach: Path, out: Path, n: int) -> dict[str, Any]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.planner_bare_request", description=__doc__.splitlines()[0]
-    )
-    parser.add_argument("--n", type=int, default=100, help="game indices 0..n-1 of valid_unseen")
-    parser.add_argument("--workers", type=int, default=2)
+    parser = episode_bench_parser("planner_bare_request", __doc__, 100, "game indices 0..n-1 of valid_unseen")
     parser.add_argument("--teach", type=Path, help="generated valid_unseen games (default: generate them)")
-    parser.add_argument(
-        "--runs", type=Path, default=Path("runs/bench/planner_bare_request"), help="resumable run folder"
-    )
-    parser.add_argument("--url", help="a running service (default: start one)")
     args = parser.parse_args(argv)
 
     commit = current_commit()

@@ -45,14 +45,19 @@ def checkpoint_summary() -> dict[str, Any]:
     }
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.planner_tfd", description=__doc__.splitlines()[0])
-    parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
+def episode_bench_parser(name: str, doc: str | None, n: int, n_help: str) -> argparse.ArgumentParser:
+    """The options every planner SR bench takes: how many episodes, workers, a resumable run folder under
+    ``runs/bench/<name>``, and a running service to use instead of starting one."""
+    parser = argparse.ArgumentParser(prog=f"python -m bench.{name}", description=(doc or "").splitlines()[0])
+    parser.add_argument("--n", type=int, default=n, help=n_help)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument(
-        "--runs", type=Path, default=Path("runs/bench/planner_tfd"), help="resumable run folder"
-    )
+    parser.add_argument("--runs", type=Path, default=Path("runs/bench") / name, help="resumable run folder")
     parser.add_argument("--url", help="a running service (default: start one)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = episode_bench_parser("planner_tfd", __doc__, 100, "episodes (slot i is task i %% 12)")
     args = parser.parse_args(argv)
 
     commit = current_commit()  # the code the service starts with
