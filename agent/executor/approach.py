@@ -21,7 +21,7 @@ from agent.executor.state import Attempt, Point
 from agent.executor.step import Act, Done, Outcome
 from agent.geometry import project_points
 from agent.mapping import GridFrame
-from agent.navigation.base import NavGoal, body_fits
+from agent.navigation.base import Lattice, NavGoal, agent_cell, body_fits, cells_per_step
 from agent.navigation.goals import interaction_goal_cells
 from symbolic.subgoals import Subgoal, SubgoalAction
 from symbolic.thor import INTERACTION_DISTANCE_M
@@ -224,7 +224,10 @@ class Approach(InstanceChoice):
         """Cells from which the cluster is within reach and in view (``interaction_goal_cells``), with a
         clear line of sight to a small target (an open fridge door must not hide the bread inside):
         known floor first (unless ``known_first`` is False), any floor else; clear sight preferred, not
-        required.
+        required. Known floor counts only when its cells hold a node of the agent's lattice: a strip of
+        known floor narrower than a move may hold none, and the navigator cannot arrive there (the only
+        known floor in reach of a fridge, beyond a wall, held 21 cells and no node in ALFRED valid_seen slot
+        11, while the floor in front of it, unseen yet, was the way).
 
         Computed on a window around the cluster (reach plus the body's radius): the distance transforms
         then cost a fraction of the whole map's.
@@ -250,14 +253,20 @@ class Approach(InstanceChoice):
             (i1 - i0, j1 - j0),
         )
         excluded = self._near_bad_stands(attempt, sub_frame)
+        shape = semantic_map.shape
+        here = agent_cell(frame, self.pose, shape)
+        nodes = Lattice.through(here, shape, cells_per_step(frame)).node_cells(shape)
         local = np.zeros_like(standable)
         floors = (standable & known, standable) if known_first else (standable,)
         for floor in floors:
-            local = interaction_goal_cells(
+            found = interaction_goal_cells(
                 cluster.cells[window], floor, sub_frame, hfov_deg=view.camera.hfov_deg
             )
-            local &= ~excluded
-            if local.any():
+            found &= ~excluded
+            if not local.any():
+                local = found  # the first floor's goal, even without a node, when no floor's has one
+            if (found & nodes[window]).any():
+                local = found
                 break
         goal = np.zeros((X, Z), dtype=bool)
         goal[window] = local

@@ -216,11 +216,19 @@ def unsighted(parts: list[ContainerCandidate], seen: list[sightings.Sighting]) -
     return [p for p in parts if not sighted(p)]
 
 
-def opening_order(candidates: list[ContainerCandidate], prefer: str | None) -> list[ContainerCandidate]:
-    """The plan's hinted type first, then nearest first, map parts counted ``PART_PENALTY_M`` farther."""
+def opening_order(
+    candidates: list[ContainerCandidate],
+    prefer: str | None,
+    unseen_at: Sequence[tuple[float, float]] = (),
+) -> list[ContainerCandidate]:
+    """Containers within ``CONTAINER_DEPTH_M`` of a spot where X was mapped and then not seen (``unseen_at``,
+    world (x, z)) first: it was seen inside and the door has shut since. Then the plan's hinted type, then
+    nearest first, map parts counted ``PART_PENALTY_M`` farther."""
 
-    def key(c: ContainerCandidate) -> tuple[bool, float]:
-        return c.object_type != prefer, c.distance_m + (PART_PENALTY_M if c.instance_id is None else 0.0)
+    def key(c: ContainerCandidate) -> tuple[bool, bool, float]:
+        holds = any(math.hypot(c.target[0] - x, c.target[2] - z) <= CONTAINER_DEPTH_M for x, z in unseen_at)
+        far = c.distance_m + (PART_PENALTY_M if c.instance_id is None else 0.0)
+        return not holds, c.object_type != prefer, far
 
     return sorted(candidates, key=key)
 
@@ -442,7 +450,10 @@ class ContainerSearch(Approach):
         seen = self.state.containers
         checked = self.state.searched.setdefault(obj, [])
         parts = unsighted(container_candidates(self.view, self.onto, obj, checked, self.cfg.search), seen)
-        return opening_order(sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer)
+        unseen_at = [(s.x, s.z) for s in self.state.ignored if s.object_type == obj and s.until_seen]
+        return opening_order(
+            sighted_candidates(self.view, self.onto, obj, seen) + parts, search.prefer, unseen_at
+        )
 
     def _accept_second(self, obj: str, attempt: Attempt) -> Outcome | None:
         """Settle for a second-rate X (``choice._second_rate``) once the search for a better one has done

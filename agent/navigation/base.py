@@ -266,6 +266,13 @@ class Lattice:
         i0, j0 = self.first_cell
         return grid[i0 :: self.stride, j0 :: self.stride]
 
+    def node_cells(self, map_shape: tuple[int, int]) -> np.ndarray:
+        """bool [X, Z]: the map cells nodes sit on (a goal holding none of them cannot be arrived at)."""
+        cells = np.zeros(map_shape, dtype=bool)
+        i0, j0 = self.first_cell
+        cells[i0 :: self.stride, j0 :: self.stride] = True
+        return cells
+
     def cell_of(self, node: Cell) -> Cell:
         """The map cell a node sits on."""
         return self.first_cell[0] + self.stride * node[0], self.first_cell[1] + self.stride * node[1]

@@ -56,8 +56,13 @@ class FmmConfig:
     # clearance, plan again with these, in order, near the agent only (AI2-THOR's grid, and ours, lets the
     # body centre come 0.125 m from a wall, and a wall mapped from noisy depth is a cell or two thick, so a
     # start in a corridor along a wall is closed in at 0.15 m); blocked moves are remembered as usual
-    tight_reach_m: float = 1.5  # metres around the agent where a tight radius applies: it gets the agent
-    # out of where it stands, and does not open gaps too narrow for the body elsewhere
+    tight_reach_m: float = 1.5  # metres around the agent where a tight radius applies first: it gets the
+    # agent out of where it stands, and does not open gaps too narrow for the body elsewhere
+    squeeze_everywhere: bool = True  # when even that reaches no goal, plan with the tight radii over the
+    # whole map: a mapped face lies up to a cell (5 cm) nearer than the furniture's, so a 0.33 m corridor
+    # between a wall and a kitchen island, or the one floor cell within reach of a desk lamp, is closed at
+    # 0.15 m though the simulator lets the body through (ALFRED valid_seen slots 11 and 0); a gap that
+    # proves too narrow is a collision, remembered, and the plan after it goes round
     collision_radius_m: float = 0.1  # metres: a remembered collision closes the spot the move tried to
     # reach and the move into it, but not the agent's node a full move away (the map's collision strip
     # starts 0.15 m ahead of the agent, so the body radius would close the agent in)
@@ -94,10 +99,11 @@ class LatticeGraph:
         cell: Cell,
         config: FmmConfig,
         tight_radius_m: float | None = None,
+        everywhere: bool = False,
     ) -> LatticeGraph:
         """The graph through the agent's ``cell``: obstacles dilated by the body radius (by
-        ``tight_radius_m`` within ``tight_reach_m`` of the agent, when given), collision cells by
-        ``collision_radius_m``.
+        ``tight_radius_m`` within ``tight_reach_m`` of the agent, or over the whole map when
+        ``everywhere``, when given), collision cells by ``collision_radius_m``.
 
         The agent's own node is always open: it stands there, even when the map put an obstacle inside its
         safety margin (depth noise, or furniture the simulator lets it pass closer than its radius). From
@@ -105,7 +111,9 @@ class LatticeGraph:
         ends where the body fits.
         """
         fits = body_fits(obstacles, frame.cell_m, config.robot_radius_m)
-        if tight_radius_m is not None:
+        if tight_radius_m is not None and everywhere:
+            fits |= body_fits(obstacles, frame.cell_m, tight_radius_m)
+        elif tight_radius_m is not None:
             X, Z = obstacles.shape
             i, j = cell
             r = round(config.tight_reach_m / frame.cell_m)
@@ -246,9 +254,8 @@ class FmmNavigator:
         collisions = self.collisions.mask(frame)
         if grids.collisions is not None:
             collisions |= grids.collisions
-        full = self.config.robot_radius_m
-        for radius in (None, *(r for r in self.config.tight_radii_m if r < full)):
-            planned = self._plan(grids, frame, cell, collisions, goal, radius)
+        for radius, everywhere in self._clearances():
+            planned = self._plan(grids, frame, cell, collisions, goal, radius, everywhere)
             if planned is not None:
                 break
         else:
@@ -266,6 +273,13 @@ class FmmNavigator:
             path=tuple(graph.lattice.cell_of(node) for node in path),
         )
 
+    def _clearances(self) -> list[tuple[float | None, bool]]:
+        """(tight radius or None for the full one, whether it applies everywhere), in the order tried."""
+        tight = [r for r in self.config.tight_radii_m if r < self.config.robot_radius_m]
+        near = [(r, False) for r in tight]
+        anywhere = [(r, True) for r in tight] if self.config.squeeze_everywhere else []
+        return [(None, False), *near, *anywhere]
+
     def _plan(
         self,
         grids: NavGrids,
@@ -274,9 +288,10 @@ class FmmNavigator:
         collisions: np.ndarray,
         goal: NavGoal,
         tight_radius_m: float | None,
+        everywhere: bool = False,
     ) -> tuple[LatticeGraph, np.ma.MaskedArray] | None:
-        """The lattice graph (``tight_radius_m`` near the agent, if given) and its cost field, or None when
-        no goal is reachable."""
+        """The lattice graph (``tight_radius_m`` near the agent or ``everywhere``, if given) and its cost
+        field, or None when no goal is reachable."""
         radius = self.config.robot_radius_m
         graph = LatticeGraph.build(
             without_body(grids.obstacles, cell, frame.cell_m, radius),
@@ -285,6 +300,7 @@ class FmmNavigator:
             cell,
             self.config,
             tight_radius_m,
+            everywhere,
         )
         goal_nodes = graph.lattice.sample(goal.cells) & graph.nodes
         if not goal_nodes.any():

@@ -22,6 +22,7 @@ from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, 
 from agent.executor.looks import StainConfig, looks, stained_share
 from agent.executor.mapview import IgnoredSpot, SessionMapView
 from agent.executor.replay import holding_before
+from agent.executor.search import ContainerCandidate, opening_order
 from agent.executor.state import Attempt, FailedClick
 from agent.executor.success import instance_colour
 from agent.geometry import Camera, Pose
@@ -1530,3 +1531,19 @@ def test_a_faucet_is_looked_for_beside_the_sink_not_beside_the_pot_just_put_on_t
     assert any("will look from close by at the SinkBasin" in event for event in events), events
     assert not any("at the Pot" in event for event in events), events
     assert faucet.is_toggled, [(d.action, d.reason) for d in decisions]
+
+
+def test_the_container_where_the_target_was_mapped_and_then_not_seen_is_opened_first() -> None:
+    """Generated valid_unseen game 93: the lettuce was seen in the open fridge while the bread was fetched;
+    once the fridge shut, the agent walked to the lettuce, did not see it and ruled the spot out, and the
+    search then opened the nearer cabinets one by one for 270 steps. The container within a fridge's depth of
+    that spot comes first now, ahead of the plan's hinted type and of nearer ones."""
+    cabinet = ContainerCandidate("Cabinet", (1.0, 0.5, 0.0), 0.9, 1.0, instance_id=3)
+    drawer = ContainerCandidate("Drawer", (1.5, 0.5, 0.0), 0.9, 1.5, instance_id=4)
+    fridge = ContainerCandidate("Fridge", (4.0, 0.9, 0.0), 1.8, 4.0, instance_id=7)
+    candidates = [cabinet, fridge, drawer]
+
+    assert opening_order(candidates, prefer=None) == [cabinet, drawer, fridge]  # nearest first
+    assert opening_order(candidates, prefer="Drawer") == [drawer, cabinet, fridge]
+    lettuce_was_at = [(4.5, 0.2)]  # 0.6 m behind the fridge's face
+    assert opening_order(candidates, prefer="Drawer", unseen_at=lettuce_was_at) == [fridge, drawer, cabinet]
