@@ -192,3 +192,34 @@ def test_alfred_instruction_episodes_run_and_score_with_alfred_goal_conditions(
     assert not initial.success and initial.total >= 1  # ALFRED's conditions, unmet at the start
     assert record["outcome"]["success"], record["unsatisfied"]
     assert record["outcome"]["gc_total"] == initial.total
+
+
+@pytest.mark.data
+def test_alfred_fridge_behind_a_corridor_the_map_draws_too_narrow_is_reached(
+    service: RunningService, shared_data_dir: Path
+) -> None:
+    """ALFRED valid_seen slot 11 (cool an apple, put it in the bin), the expert's subgoals: the only way to
+    the fridge is a 0.33 m corridor between a wall and the island, which the map draws a cell narrower, and
+    the only known floor within reach of the fridge held no lattice node. The agent explored 415 steps and
+    never reached the fridge; now it walks the corridor and puts the apple in."""
+    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
+        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
+    config = EvalConfig(
+        benchmark="alfred",
+        split="valid_seen",
+        n=12,
+        camera_side=300,
+        hfov_deg=ALFRED_HFOV_DEG,
+        planner="oracle",
+    )
+
+    record = run_slot(config, 11, service.base_url)
+
+    statuses = [(s["subgoal"], s["status"]) for s in record["subgoals"][:5]]
+    assert statuses == [
+        ("Navigate Apple", "done"),
+        ("Pickup Apple", "done"),
+        ("Navigate Fridge", "done"),
+        ("Open Fridge", "done"),
+        ("Place Fridge", "done"),
+    ], statuses
