@@ -59,10 +59,11 @@ class FmmConfig:
     tight_reach_m: float = 1.5  # metres around the agent where a tight radius applies first: it gets the
     # agent out of where it stands, and does not open gaps too narrow for the body elsewhere
     squeeze_everywhere: bool = True  # when even that reaches no goal, plan with the tight radii over the
-    # whole map: a mapped face lies up to a cell (5 cm) nearer than the furniture's, so a 0.33 m corridor
-    # between a wall and a kitchen island, or the one floor cell within reach of a desk lamp, is closed at
-    # 0.15 m though the simulator lets the body through (ALFRED valid_seen slots 11 and 0); a gap that
-    # proves too narrow is a collision, remembered, and the plan after it goes round
+    # whole map: a mapped face lies up to a cell (5 cm) nearer than the furniture's, so a gap or a standing
+    # spot far from the agent can be closed at the full clearance though the simulator lets the body
+    # through (with the expert's subgoals, ALFRED valid_seen slots 32, 43, 51 and 63 never reached a knife,
+    # a candle, a cup and a floor lamp without it, and do with it); a gap that proves too narrow is a
+    # collision, remembered, and the plan after it goes round
     collision_radius_m: float = 0.1  # metres: a remembered collision closes the spot the move tried to
     # reach and the move into it, but not the agent's node a full move away (the map's collision strip
     # starts 0.15 m ahead of the agent, so the body radius would close the agent in)

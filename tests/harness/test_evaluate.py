@@ -195,13 +195,14 @@ def test_alfred_instruction_episodes_run_and_score_with_alfred_goal_conditions(
 
 
 @pytest.mark.data
-def test_alfred_fridge_behind_a_corridor_the_map_draws_too_narrow_is_reached(
+def test_alfred_fridge_whose_only_known_floor_in_reach_holds_no_lattice_node_is_reached(
     service: RunningService, shared_data_dir: Path
 ) -> None:
-    """ALFRED valid_seen slot 11 (cool an apple, put it in the bin), the expert's subgoals: the only way to
-    the fridge is a 0.33 m corridor between a wall and the island, which the map draws a cell narrower, and
-    the only known floor within reach of the fridge held no lattice node. The agent explored 415 steps and
-    never reached the fridge; now it walks the corridor and puts the apple in."""
+    """ALFRED valid_seen slot 11 (cool an apple, put it in the bin), the expert's subgoals: the fridge
+    stands at the end of a corridor between a wall and the island, and the only known floor within reach
+    of it, beyond the wall, held no node of the agent's lattice, so the navigator could never arrive and
+    the fridge counted as unreachable. The agent explored 415 steps and never reached it; now the unseen
+    floor of the corridor is the goal, and the agent walks it and puts the apple in."""
     if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
         pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
     config = EvalConfig(
