@@ -329,22 +329,32 @@ class SemanticMap:
         self._views.clear()
 
     def _strip_ahead(self, pose: Pose, action: str) -> np.ndarray:
-        """float [K, 2]: sample points of the strip in front of a blocked move, every half cell."""
+        """float [K, 2]: centres of the cells whose centre lies in the strip in front of a blocked move.
+
+        Cells are picked by their centres, not by sampling the strip's edges: the agent stands on cell
+        corners, so an edge point 0.15 m ahead lies on a cell boundary, and floating-point rounding put it
+        in the nearer cell for moves toward +x or +z only. That cell is within the navigator's collision
+        radius of the cell the agent stood on, so a blocked move toward +x/+z closed the node it was made
+        from, and a row of them walled the agent into a corridor it had walked along.
+        """
         moved = pose.apply_motion(action, True)
         dx, dz = moved.x - pose.x, moved.z - pose.z
         length = math.hypot(dx, dz)
         if length == 0:
             raise ValueError(f"action {action!r} does not move the agent; give blocked_xz explicitly")
         ux, uz = dx / length, dz / length
-        step = self.config.cell_m / 2
         near, far = self.config.collision_depth_m
         half = self.config.collision_half_width_m
-        along = np.arange(near, far + 1e-9, step)
-        side = np.arange(-half, half + 1e-9, step)
-        a, s = np.meshgrid(along, side, indexing="ij")
-        xs = pose.x + a * ux + s * uz  # the side vector is (uz, -ux)
-        zs = pose.z + a * uz - s * ux
-        return np.stack([xs.ravel(), zs.ravel()], axis=1)
+        c = self.config.cell_m
+        reach = math.hypot(far, half)
+        i = np.arange(math.floor((pose.x - reach) / c), math.floor((pose.x + reach) / c) + 1)
+        j = np.arange(math.floor((pose.z - reach) / c), math.floor((pose.z + reach) / c) + 1)
+        cx, cz = np.meshgrid((i + 0.5) * c, (j + 0.5) * c, indexing="ij")
+        along = (cx - pose.x) * ux + (cz - pose.z) * uz
+        side = (cx - pose.x) * uz - (cz - pose.z) * ux
+        tolerance = 1e-6
+        keep = (along >= near - tolerance) & (along <= far + tolerance) & (np.abs(side) <= half + tolerance)
+        return np.stack([cx[keep], cz[keep]], axis=1)
 
     @property
     def collision_events(self) -> tuple[CollisionEvent, ...]:

@@ -17,7 +17,7 @@ import pytest
 
 from agent.executor.clicks import pixel_points
 from agent.geometry import Camera, Pose, pixel_axis_distances, pixel_ray_slopes
-from agent.mapping import GridFrame
+from agent.mapping import GridFrame, SemanticMap
 from agent.navigation import NAVIGATORS, make_navigator
 from agent.navigation.base import (
     STEPS,
@@ -366,6 +366,27 @@ def test_the_map_collision_layer_blocks_forward_without_trapping_the_agent() -> 
     )
     assert decision.action in ("Turn Left", "Turn Right")
     assert decision.path[1] in ((45, 50), (55, 50))
+
+
+def test_moves_blocked_along_a_corridor_leave_the_way_back_open() -> None:
+    """ALFRED valid_seen slot 39 with the expert's subgoals: walking along a corridor, the agent bumped into
+    its far wall from three nodes in a row; the strips the map marked for those bumps closed the row it
+    stood on, so every place left to search was unreachable and the episode ended after 57 steps."""
+    semantic_map = SemanticMap(Camera(300, 300, 90.0), Pose(1.0, 2.0))
+    frame = semantic_map.frame
+    for x in (1.0, 1.25, 1.5):  # on the 0.25 m grid, as the simulator puts the agent
+        semantic_map.record_collision(Pose(x, 2.0, 0.0), "Forward")  # toward +z
+    obstacles = np.zeros(frame.shape, dtype=bool)
+    z_centres = frame.origin_z + (np.arange(frame.shape[1]) + 0.5) * frame.cell_m
+    obstacles[:, (z_centres > 2.3) & (z_centres < 2.4)] = True  # the wall bumped into
+    obstacles[:, (z_centres > 1.8) & (z_centres < 1.85)] = True  # the corridor's other side
+    collisions = semantic_map.collisions()
+    grids = NavGrids(obstacles=obstacles, explored=np.ones_like(obstacles), collisions=collisions)
+    goal = np.zeros(frame.shape, dtype=bool)
+    goal[frame.world_to_cell(0.5, 2.0)] = True
+    decision = FmmNavigator().next_action(grids, frame, Pose(1.5, 2.0, 0.0), NavGoal(goal))
+    assert decision.reason == "approach", decision
+    assert decision.distance_m == pytest.approx(1.0)
 
 
 def test_an_agent_inside_an_obstacle_margin_can_still_leave() -> None:

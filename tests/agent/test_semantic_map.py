@@ -411,6 +411,24 @@ def test_a_blocked_move_marks_the_cells_ahead() -> None:
         semantic_map.record_collision(Pose(2.0, 2.0), "Turn Left")
 
 
+def test_blocked_moves_mark_the_same_strip_whichever_way_the_agent_faces() -> None:
+    """The agent stands on cell corners; the strip's near edge, 0.15 m ahead, falls on a cell boundary, and
+    rounding used to put a cell 0.1-0.15 m ahead into the strip of a move toward +x or +z only."""
+    pose = Pose(2.0, 2.0)
+    strips = {}
+    for yaw in (0.0, 90.0, 180.0, 270.0):
+        semantic_map = SemanticMap(_camera(), pose)
+        semantic_map.record_collision(Pose(2.0, 2.0, yaw), "Forward")
+        ux, uz = math.sin(math.radians(yaw)), math.cos(math.radians(yaw))
+        cells = np.argwhere(semantic_map.collisions())
+        offsets = [np.subtract(semantic_map.cell_to_world(int(i), int(j)), (2.0, 2.0)) for i, j in cells]
+        strips[yaw] = sorted((round(dx * ux + dz * uz, 3), round(dx * uz - dz * ux, 3)) for dx, dz in offsets)
+    assert strips[0.0] == strips[90.0] == strips[180.0] == strips[270.0]
+    alongs = sorted({along for along, _ in strips[0.0]})
+    assert alongs == [0.175, 0.225, 0.275], "cells whose centres lie 0.15-0.3 m ahead"
+    assert sorted({side for _, side in strips[0.0]}) == [-0.075, -0.025, 0.025, 0.075]
+
+
 def test_pixels_of_unknown_class_still_block() -> None:
     world = _table_world()
     percept = _percept(world, _camera())
