@@ -1,4 +1,4 @@
-"""``python -m models.planner build-data|train|evaluate|calibrate|predict|export``: the planner's CLI."""
+"""``python -m models.planner build-data|train|evaluate|calibrate|predict|average|export``: the CLI."""
 
 from __future__ import annotations
 
@@ -181,11 +181,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _biases(text: str) -> list[float]:
+def _numbers(text: str) -> list[float]:
     try:
         return [float(value) for value in text.split(",") if value.strip()]
     except ValueError as error:
-        raise argparse.ArgumentTypeError(f"biases are numbers joined by commas, got {text!r}") from error
+        raise argparse.ArgumentTypeError(f"expected numbers joined by commas, got {text!r}") from error
 
 
 def _export(args: argparse.Namespace) -> int:
@@ -194,6 +194,21 @@ def _export(args: argparse.Namespace) -> int:
     notes = args.notes.read_text(encoding="utf-8") if args.notes is not None else ""
     size = export_checkpoint(args.run_final, args.to, args.evaluation, args.command, args.compare, notes)
     print(f"exported {args.run_final} to {args.to} ({size / 2**20:.1f} MiB) with MODEL_CARD.md")
+    return 0
+
+
+def _average(args: argparse.Namespace) -> int:
+    from models.planner.average import average_checkpoints
+
+    weights = args.weights if args.weights is not None else [1.0] * len(args.checkpoints)
+    try:
+        average_checkpoints(args.checkpoints, weights, args.out, half_precision=not args.fp32)
+    except ValueError as error:  # IncompatibleCheckpoints too: say which, write nothing
+        raise SystemExit(f"average: {error}") from error
+    shares = ", ".join(
+        f"{w / sum(weights):.3g} x {p}" for w, p in zip(weights, args.checkpoints, strict=False)
+    )
+    print(f"wrote {args.out}: {shares}")
     return 0
 
 
@@ -301,7 +316,7 @@ def _parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
     calibrate.add_argument("--data", type=Path, required=True, help="folder written by build-data")
     calibrate.add_argument("--sets", nargs="+", required=True, help="e.g. teach_valid_seen_edh")
-    calibrate.add_argument("--biases", type=_biases, default=[0.0, 0.5, 1.0, 1.5, 2.0])
+    calibrate.add_argument("--biases", type=_numbers, default=[0.0, 0.5, 1.0, 1.5, 2.0])
     calibrate.add_argument("--write", action="store_true", help="record the best in planner_meta.json")
     calibrate.add_argument("--batch-size", type=int, default=32)
     calibrate.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
@@ -316,6 +331,17 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
     predict.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
     predict.set_defaults(run=_predict)
+
+    average = commands.add_parser(
+        "average", help="average the weights of checkpoints of one lineage (a second schedule and its start)"
+    )
+    average.add_argument("--checkpoints", type=Path, nargs="+", required=True)
+    average.add_argument(
+        "--weights", type=_numbers, help="one per checkpoint, joined by commas (default: equal)"
+    )
+    average.add_argument("--out", type=Path, required=True, help="folder for the averaged checkpoint")
+    average.add_argument("--fp32", action="store_true", help="write float32 instead of float16")
+    average.set_defaults(run=_average)
 
     export = commands.add_parser("export", help="make a finished run the default checkpoint, with its card")
     export.add_argument("--run-final", type=Path, required=True, help="a finished run's final/ folder")

@@ -9,58 +9,13 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from models.planner.config import BartScratchArchitecture, Recipe, TrainConfig
+from models.planner.config import BartScratchArchitecture
 from models.planner.data import DatasetFiles, PlannerExample, write_examples
 from models.planner.modeling import load_planner_model, read_planner_meta
 from models.planner.predict import SubgoalGenerator
 from models.planner.train import ResumeMismatch, epoch_batches, train
 from symbolic.ontology import load_ontology
-
-PAIRS = [
-    (
-        "put a mug in the coffee machine",
-        "Navigate Mug, Pickup Mug, Navigate CoffeeMachine, Place CoffeeMachine",
-    ),
-    ("slice the bread", "Navigate Knife, Pickup Knife, Navigate Bread, Slice Bread"),
-    ("turn on the lamp", "Navigate DeskLamp, ToggleOn DeskLamp"),
-    (
-        "chill an apple",
-        "Navigate Apple, Pickup Apple, Navigate Fridge, Open Fridge, Place Fridge, Close Fridge",
-    ),
-]
-
-
-def tiny_recipe(max_steps: int) -> Recipe:
-    return Recipe(
-        name="bart-scratch",
-        train=TrainConfig(
-            batch_size=2,
-            learning_rate=3e-3,
-            warmup_steps=1,
-            max_steps=max_steps,
-            save_every=1,
-            eval_every=0,
-            num_threads=1,
-            seed=7,
-        ),
-        bart=BartScratchArchitecture(d_model=32, layers=1, attention_heads=2, ffn_dim=64, vocab_size=400),
-    )
-
-
-@pytest.fixture
-def dataset(tmp_path: Path) -> DatasetFiles:
-    files = DatasetFiles(tmp_path / "data")
-    examples = [
-        PlannerExample(f"ex{i}", f"<COM> {text}", plan, "tiny", "test")
-        for i, (text, plan) in enumerate(PAIRS * 3)
-    ]
-    write_examples(files.train, examples)
-    write_examples(files.dev, examples[:4])
-    return files
-
-
-def weights(path: Path) -> dict[str, torch.Tensor]:
-    return load_file(str(path / "model.safetensors"))
+from tests.models.planner_training_helpers import PAIRS, tiny_recipe, weights
 
 
 def test_a_stopped_run_resumes_at_its_step_and_ends_where_an_uninterrupted_run_does(
