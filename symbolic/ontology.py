@@ -143,6 +143,10 @@ class Ontology:
         }
         self.slicing_tools: tuple[str, ...] = tuple(data["slicing_tools"])
         """Types that Slice needs in hand (Knife first: it is what repair fetches)."""
+        self.one_word_kinds: dict[str, tuple[str, ...]] = {
+            word: tuple(kinds) for word, kinds in data["one_word_kinds"].items()
+        }
+        """Everyday word -> the types it names ("lamp" -> DeskLamp, FloorLamp), nearest kin first."""
         self.enclosing: frozenset[str] = frozenset(data["enclosing"])
         """Receptacles whose contents sit behind a door (Fridge, Microwave, Cabinet, Drawer, Safe, Box):
         putting in and taking out need them open."""
@@ -164,6 +168,7 @@ class Ontology:
             + [t for objs in self._accepts.values() for t in objs]
             + list(self._accepts)
             + list(self.slicing_tools)
+            + [t for kinds in self.one_word_kinds.values() for t in kinds]
             + list(self.enclosing)
             + list(self.initially_open)
             + [t for controller, targets in self.controls.items() for t in (controller, *targets)]
@@ -273,6 +278,12 @@ class Ontology:
             for x, y in pairs
             if x in self._info
         )
+
+    def kin(self, object_type: str) -> tuple[str, ...]:
+        """The other types an everyday word for ``object_type`` also names, nearest first: where the word
+        was "lamp" and the planner wrote DeskLamp, the room may hold only a FloorLamp."""
+        kin = [k for kinds in self.one_word_kinds.values() if object_type in kinds for k in kinds]
+        return tuple(k for k in dict.fromkeys(kin) if k != object_type)
 
     def has_class(self, object_type: str, cls: str) -> bool:
         """TEACh simbotObjectClass membership; a type is always a member of its own class."""

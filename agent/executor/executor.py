@@ -38,7 +38,7 @@ from agent.executor.config import ExecutorConfig
 from agent.executor.hints import HintFollowing
 from agent.executor.motion import OPPOSITE_TURN, GuardedNavigator, MotionSafety, turn_key
 from agent.executor.room import MakeRoom
-from agent.executor.standin import SlicingStandIn
+from agent.executor.standin import KindStandIn, SlicingStandIn
 from agent.executor.state import Attempt, ExecutorState, FailedClick, Pending, Point
 from agent.executor.step import Act, Done, GiveUp, Outcome, StepInputs
 from agent.executor.success import instance_colour
@@ -119,7 +119,7 @@ class Executor:
         return run.decide()
 
 
-class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
+class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn, KindStandIn):
     """One call of ``Executor.decide`` (module docstring): the step itself, on top of the mixins."""
 
     def decide(self) -> Decision:
@@ -133,7 +133,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
             if self.pointer >= len(self.plan) and not self._retry_given_up():
                 return self._stop("plan done: every subgoal was executed", plan_done=True)
             subgoal = self.plan[self.pointer]
-            if self._stand_in(subgoal):
+            if self._stand_in(subgoal) or self._kin_stand_in(subgoal):
                 subgoal = self.plan[self.pointer]
             attempt = self._attempt_for(subgoal)
             outcome = self._pursue(subgoal, attempt)
@@ -141,7 +141,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn):
                 return self._act(outcome, subgoal)
             if isinstance(outcome, Done):
                 self._complete(subgoal, outcome.reason, outcome.point)
-            else:
+            elif not self._searched_in_vain(subgoal):
                 self._give_up(subgoal, outcome)
                 if self.state.given_up > self.cfg.max_given_up:
                     return self._stop(f"{self.state.given_up} subgoals given up; stopping")

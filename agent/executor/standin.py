@@ -1,16 +1,26 @@
-"""Any slicing tool slices: a planned Knife the map has not seen gives way to a ButterKnife it has.
+"""Stand-ins: another type for the one the plan names, where the words could have meant either.
 
+Any slicing tool slices: a planned Knife the map has not seen gives way to a ButterKnife it has.
 People say "knife" for both kinds. ALFRED's train task descriptions that do not say which mean a
 ButterKnife 537 times and a Knife 455 times, and the planner picks one; TEACh's generated kitchens keep
 either in a drawer. AI2-THOR slices with both (``Ontology.slicing_tools``), and neither task family checks
 which one cut, so when the tool is fetched to slice and the map knows only the other kind, the agent
 takes that one rather than searching the kitchen for the kind the words happened to name. A tool fetched
 for anything else (put all butter knives on the desk) is never swapped.
+
+A kind searched for in vain gives way to its kin: "put the clocks on the night stand" planned as SideTable
+in a bedroom whose bedside piece is a Dresser, "turn on the lamp" planned as DeskLamp in a living room with
+only a FloorLamp. Here the goal checks the type, so the swap waits until the room has been searched for the
+planned kind and it was given up (it is nowhere the agent looked); a kin type the map knows
+(``Ontology.kin``: the other types the same everyday word names) then takes its place in the rest of the
+plan, where the subgoal would otherwise be dropped. The planned kind is remembered as missing, so a later
+re-plan that names it again goes straight to the kin.
 """
 
 from __future__ import annotations
 
 from agent.executor.choice import InstanceChoice
+from symbolic.predicates import affordance_failure
 from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -21,7 +31,15 @@ USES_ON_THE_WAY = frozenset({A.NAVIGATE, A.OPEN, A.CLOSE})
 Close Drawer, Navigate Bread, Slice Bread")."""
 
 
-class SlicingStandIn(InstanceChoice):
+class KnownTypes(InstanceChoice):
+    """What both stand-ins ask of the map."""
+
+    def _known(self, object_type: str) -> bool:
+        """In view now or mapped (outside spots ruled out)."""
+        return bool(self.view.visible(object_type) or self.view.clusters(object_type))
+
+
+class SlicingStandIn(KnownTypes):
     """The ``stand-in`` repair of the plan (module docstring)."""
 
     def _stand_in(self, subgoal: Subgoal) -> bool:
@@ -55,10 +73,6 @@ class SlicingStandIn(InstanceChoice):
         self.events.append(f"stand-in: {reason}")
         return True
 
-    def _known(self, object_type: str) -> bool:
-        """In view now or mapped (outside spots ruled out)."""
-        return bool(self.view.visible(object_type) or self.view.clusters(object_type))
-
     def _fetched_to_slice(self, tool: str) -> int | None:
         """The index just past the plan's Pickup of ``tool`` (from the pointer on) when the next thing done
         with the tool in hand is a Slice; None when it is fetched for anything else."""
@@ -75,3 +89,51 @@ class SlicingStandIn(InstanceChoice):
             if later.action not in USES_ON_THE_WAY:
                 return None
         return None
+
+
+class KindStandIn(KnownTypes):
+    """The ``kin-stand-in`` repair of the plan (module docstring)."""
+
+    def _searched_in_vain(self, subgoal: Subgoal) -> bool:
+        """The subgoal is being given up and its object was never found: remember the type as missing and
+        swap in a known kin type; True when the plan changed."""
+        missing = subgoal.obj
+        if self._known(missing) or not self.onto.kin(missing):
+            return False
+        if missing not in self.state.missing:
+            self.state.missing.append(missing)
+        return self._kin_stand_in(subgoal, f"searched for {missing} in vain")
+
+    def _kin_stand_in(self, subgoal: Subgoal, why: str | None = None) -> bool:
+        """Swap a type searched for in vain earlier, or just now (``why``), for a kin type the map knows
+        that affords every use the rest of the plan makes of it; True when the plan changed."""
+        missing = subgoal.obj
+        if missing not in self.state.missing or self._known(missing):
+            return False
+        rest = self.plan[self.pointer :]
+        kin = next((k for k in self.onto.kin(missing) if self._known(k) and self._serves(missing, k)), None)
+        if kin is None:
+            return False
+        after = [Subgoal(s.action, kin) if s.obj == missing else s for s in rest]
+        why = why or f"{missing} was searched for in vain before"
+        reason = f"{why}; a {kin} is known, and one word names both"
+        self.repairs.append(RepairEvent("kin-stand-in", self.pointer, reason, tuple(rest), tuple(after)))
+        self.plan = self.plan[: self.pointer] + after
+        self.state.attempt = None
+        self.events.append(f"kin-stand-in: {reason}")
+        return True
+
+    def _serves(self, missing: str, kin: str) -> bool:
+        """Whether ``kin`` affords each use the rest of the plan makes of ``missing`` (a Place: takes what
+        will be in hand then)."""
+        held = self.state.belief.held
+        for subgoal in self.plan[self.pointer :]:
+            if subgoal.action is A.PICKUP:
+                held = subgoal.obj
+            if subgoal.obj != missing:
+                continue
+            if affordance_failure(self.onto, Subgoal(subgoal.action, kin)) is not None:
+                return False
+            if subgoal.action is A.PLACE and held is not None and not self.onto.may_hold(kin, held):
+                return False
+        return True

@@ -267,6 +267,7 @@ class ExecutorState:
     containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
     failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
     given_up: int = 0  # subgoals abandoned to repair
+    missing: list[str] = field(default_factory=list)  # planned types searched for in vain (``standin``)
     retry: list[Subgoal] = field(default_factory=list)  # given-up subgoals, with what repair dropped along,
     # for one more round when the plan runs out (``_retry_given_up``)
     retry_rounds: int = 0  # such rounds begun

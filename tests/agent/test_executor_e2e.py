@@ -27,7 +27,7 @@ from harness.commander.tools import CommanderTools
 from harness.physics import resting_center
 from harness.runner import DEFAULT_CAMERA, generated_episode
 from harness.world import World, WorldObject
-from harness.worldgen import generate_kitchen
+from harness.worldgen import generate_kitchen, generate_living_room
 from symbolic.commands import ClickHint, CommandItem, StandHint, format_command
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -134,6 +134,33 @@ def test_a_knife_fetched_to_be_put_away_is_never_swapped_for_a_butter_knife(clie
     assert run.sim.world.agent.held is None
     assert all(event["rule"] != "stand-in" for event in run.last["plan"]["repair_log"])
     assert run.last["subgoal"] == "Navigate Knife", run.last
+
+
+LAMPS_SEED = next(
+    s
+    for s in range(100)
+    if (w := generate_living_room(s, require=(("DeskLamp", 1), ("FloorLamp", 1))))
+    and len(w.of_type("DeskLamp")) == len(w.of_type("FloorLamp")) == 1
+)
+
+
+def test_a_planned_lamp_the_room_lacks_gives_way_to_the_lamp_it_has(client: TestClient) -> None:
+    """ "Turn on the lamp" planned as DeskLamp in a living room whose only lamp stands on the floor: once
+    the search for a desk lamp is given up, the floor lamp the map knows takes its place (repair
+    ``kin-stand-in``) and is switched on, where the subgoal used to be dropped with no lamp lit."""
+    world = generate_living_room(LAMPS_SEED, require=(("DeskLamp", 1), ("FloorLamp", 1)))
+    (desk_lamp,) = world.of_type("DeskLamp")
+    world.remove(desk_lamp.object_id)
+    (floor_lamp,) = world.of_type("FloorLamp")
+    assert not floor_lamp.is_toggled
+
+    run = drive(client, world, "Navigate DeskLamp, ToggleOn DeskLamp", max_steps=400)
+
+    assert run.last["done"], run.last
+    assert run.sim.world.objects[floor_lamp.object_id].is_toggled
+    events = [event for event in run.last["plan"]["repair_log"] if event["rule"] == "kin-stand-in"]
+    assert events, run.last["plan"]["repair_log"]
+    assert [s["text"] for s in events[0]["inserted"]] == ["Navigate FloorLamp", "ToggleOn FloorLamp"]
 
 
 def test_without_poses_the_agent_dead_reckons_and_still_succeeds(client: TestClient) -> None:

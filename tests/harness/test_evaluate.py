@@ -224,3 +224,29 @@ def test_alfred_fridge_whose_only_known_floor_in_reach_holds_no_lattice_node_is_
         ("Open Fridge", "done"),
         ("Place Fridge", "done"),
     ], statuses
+
+
+@pytest.mark.data
+def test_alfred_night_stand_planned_as_a_side_table_the_bedroom_lacks_is_its_dresser(
+    service: RunningService, shared_data_dir: Path
+) -> None:
+    """ALFRED valid_seen slot 6, "Move two alarm clocks from the desk to the night stand.", read by the
+    model planner: it writes SideTable, and the bedroom's night stand is a Dresser. The agent searched for
+    a side table until it gave up and then stopped with the first clock in hand; now the Dresser it mapped
+    takes the side table's place in the plan and both clocks go on it."""
+    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
+        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
+    config = EvalConfig(
+        benchmark="alfred",
+        split="valid_seen",
+        n=7,
+        camera_side=300,
+        hfov_deg=ALFRED_HFOV_DEG,
+        planner="model",
+    )
+
+    record = run_slot(config, 6, service.base_url)
+
+    assert "Place SideTable" in record["plans"][0], record["plans"][0]
+    assert record["outcome"]["success"], record["unsatisfied"]
+    assert "Place Dresser" in record["plans"][-1], record["plans"]

@@ -61,6 +61,15 @@ def test_affordances_match_ai2thor_and_alfred(onto: Ontology, name: str, flags: 
     assert {flag for flag in AFFORDANCES if getattr(info, flag)} == flags
 
 
+def test_kin_are_the_other_types_one_word_names_nearest_first(onto: Ontology) -> None:
+    assert onto.kin("DeskLamp") == ("FloorLamp",)
+    assert onto.kin("Mug") == ("Cup",)
+    assert onto.kin("SideTable")[0] == "Dresser"  # a night stand before any other table
+    assert "CounterTop" in onto.kin("DiningTable")  # a kitchen without one calls its island the table
+    assert onto.kin("Knife") == ()  # slicing tools stand in for each other only to slice
+    assert onto.kin("Apple") == ()
+
+
 def test_slices_link_both_ways(onto: Ontology) -> None:
     assert onto.get("Bread").sliced_into == "BreadSliced"
     assert onto.get("Egg").sliced_into == "EggCracked"
