@@ -20,7 +20,7 @@ re-plan that names it again goes straight to the kin.
 from __future__ import annotations
 
 from agent.executor.choice import InstanceChoice
-from symbolic.predicates import affordance_failure
+from symbolic.ontology import AFFORDANCES
 from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -106,7 +106,7 @@ class KindStandIn(KnownTypes):
 
     def _kin_stand_in(self, subgoal: Subgoal, why: str | None = None) -> bool:
         """Swap a type searched for in vain earlier, or just now (``why``), for a kin type the map knows
-        that affords every use the rest of the plan makes of it; True when the plan changed."""
+        that serves the rest of the plan as well (``_serves``); True when the plan changed."""
         missing = subgoal.obj
         if missing not in self.state.missing or self._known(missing):
             return False
@@ -124,16 +124,15 @@ class KindStandIn(KnownTypes):
         return True
 
     def _serves(self, missing: str, kin: str) -> bool:
-        """Whether ``kin`` affords each use the rest of the plan makes of ``missing`` (a Place: takes what
-        will be in hand then)."""
+        """Whether ``kin`` can do all that ``missing`` can (a pan stands in for no pot: the plan may fill
+        the pot at the sink to boil something) and takes what the rest of the plan puts on ``missing``."""
+        wanted, offered = self.onto.get(missing), self.onto.get(kin)
+        if any(getattr(wanted, flag) and not getattr(offered, flag) for flag in AFFORDANCES):
+            return False
         held = self.state.belief.held
         for subgoal in self.plan[self.pointer :]:
             if subgoal.action is A.PICKUP:
                 held = subgoal.obj
-            if subgoal.obj != missing:
-                continue
-            if affordance_failure(self.onto, Subgoal(subgoal.action, kin)) is not None:
-                return False
-            if subgoal.action is A.PLACE and held is not None and not self.onto.may_hold(kin, held):
+            if subgoal == Subgoal(A.PLACE, missing) and held and not self.onto.may_hold(kin, held):
                 return False
         return True

@@ -163,6 +163,28 @@ def test_a_planned_lamp_the_room_lacks_gives_way_to_the_lamp_it_has(client: Test
     assert [s["text"] for s in events[0]["inserted"]] == ["Navigate FloorLamp", "ToggleOn FloorLamp"]
 
 
+PAN_SEED = next(
+    s for s in range(100) if _in_the_open(generate_kitchen(s, require=(("Pan", 1), ("Pot", 1))), "Pan")
+)
+
+
+def test_a_pan_never_stands_in_for_a_pot_the_kitchen_lacks(client: TestClient) -> None:
+    """One word may name both ("pan"), but a pot can be filled at the sink to boil something and a pan
+    cannot: with every pot taken away, the pan in plain view is left where it is when the search for a
+    pot is given up."""
+    world = generate_kitchen(PAN_SEED, require=(("Pan", 1), ("Pot", 1)))
+    for pot in world.of_type("Pot"):
+        world.remove(pot.object_id)
+    (pan,) = world.of_type("Pan")
+
+    run = drive(client, world, "Navigate Pot, Pickup Pot, Navigate SinkBasin, Place SinkBasin", max_steps=450)
+
+    assert any(event["rule"] == "subgoal-failed" for event in run.last["plan"]["repair_log"]), run.last
+    assert all(event["rule"] != "kin-stand-in" for event in run.last["plan"]["repair_log"])
+    assert run.sim.world.objects[pan.object_id].parent_id == pan.parent_id
+    assert run.sim.world.agent.held is None
+
+
 def test_without_poses_the_agent_dead_reckons_and_still_succeeds(client: TestClient) -> None:
     world = kitchen()
     (apple,) = world.of_type("Apple")
