@@ -141,7 +141,7 @@ class _Run(MakeRoom, HintFollowing, MotionSafety, SlicingStandIn, KindStandIn):
                 return self._act(outcome, subgoal)
             if isinstance(outcome, Done):
                 self._complete(subgoal, outcome.reason, outcome.point)
-            elif not self._searched_in_vain(subgoal):
+            elif not self._kin_instead_of_giving_up(subgoal):
                 self._give_up(subgoal, outcome)
                 if self.state.given_up > self.cfg.max_given_up:
                     return self._stop(f"{self.state.given_up} subgoals given up; stopping")

@@ -94,7 +94,7 @@ class SlicingStandIn(KnownTypes):
 class KindStandIn(KnownTypes):
     """The ``kin-stand-in`` repair of the plan (module docstring)."""
 
-    def _searched_in_vain(self, subgoal: Subgoal) -> bool:
+    def _kin_instead_of_giving_up(self, subgoal: Subgoal) -> bool:
         """The subgoal is being given up and its object was never found: remember the type as missing and
         swap in a known kin type; True when the plan changed."""
         missing = subgoal.obj
