@@ -10,6 +10,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Literal
 
 import pytest
 
@@ -160,17 +161,30 @@ def test_bad_options_are_refused(changes: dict[str, object], message: str) -> No
         EvalConfig(**{**base, **changes})  # type: ignore[arg-type]
 
 
+def _alfred_valid_seen(
+    shared_data_dir: Path, n: int, planner: Literal["oracle", "model"] = "oracle"
+) -> EvalConfig:
+    """``harness eval --benchmark alfred --split valid_seen`` with ALFRED's 300x300 camera at 60°; the
+    test is skipped when the shared data holds no ALFRED valid_seen trajectories."""
+    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
+        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
+    return EvalConfig(
+        benchmark="alfred",
+        split="valid_seen",
+        n=n,
+        camera_side=300,
+        hfov_deg=ALFRED_HFOV_DEG,
+        planner=planner,
+    )
+
+
 @pytest.mark.data
 def test_alfred_instruction_episodes_run_and_score_with_alfred_goal_conditions(
     service: RunningService, shared_data_dir: Path
 ) -> None:
     """ALFRED mode: a valid_seen trajectory's world and instruction, a session in mode ``instruction`` with
     ALFRED's 300x300 camera at 60°, scored with ALFRED's goal conditions."""
-    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
-        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
-    config = EvalConfig(
-        benchmark="alfred", split="valid_seen", n=7, camera_side=300, hfov_deg=ALFRED_HFOV_DEG
-    )
+    config = _alfred_valid_seen(shared_data_dir, 7)
     first_types = [episode_for(config, slot).task for slot in range(7)]
     assert len({task.task_type for task in first_types if isinstance(task, AlfredTask)}) == 7, (
         "the first seven slots take one trajectory of each ALFRED task type"
@@ -203,16 +217,7 @@ def test_alfred_fridge_whose_only_known_floor_in_reach_holds_no_lattice_node_is_
     of it, beyond the wall, held no node of the agent's lattice, so the navigator could never arrive and
     the fridge counted as unreachable. The agent explored 415 steps and never reached it; now the unseen
     floor of the corridor is the goal, and the agent walks it and puts the apple in."""
-    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
-        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
-    config = EvalConfig(
-        benchmark="alfred",
-        split="valid_seen",
-        n=12,
-        camera_side=300,
-        hfov_deg=ALFRED_HFOV_DEG,
-        planner="oracle",
-    )
+    config = _alfred_valid_seen(shared_data_dir, 12, "oracle")
 
     record = run_slot(config, 11, service.base_url)
 
@@ -234,16 +239,7 @@ def test_alfred_night_stand_planned_as_a_side_table_the_bedroom_lacks_is_its_dre
     model planner: it writes SideTable, and the bedroom's night stand is a Dresser. The agent searched for
     a side table until it gave up and then stopped with the first clock in hand; now the Dresser it mapped
     takes the side table's place in the plan and both clocks go on it."""
-    if not (shared_data_dir / "alfred" / "valid_seen.jsonl.gz").is_file():
-        pytest.skip(f"no ALFRED valid_seen trajectories in {shared_data_dir / 'alfred'}")
-    config = EvalConfig(
-        benchmark="alfred",
-        split="valid_seen",
-        n=7,
-        camera_side=300,
-        hfov_deg=ALFRED_HFOV_DEG,
-        planner="model",
-    )
+    config = _alfred_valid_seen(shared_data_dir, 7, "model")
 
     record = run_slot(config, 6, service.base_url)
 
