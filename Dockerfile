@@ -1,4 +1,6 @@
 # The service in a container: the same environment as `make setup` (CPU torch), serving on port 8000.
+# With JARVIS_STORE=redis://<host>:6379/0 it runs one worker process per core the container may use
+# (JARVIS_WORKERS to choose), and any container of the image can serve any session.
 FROM python:3.11-slim
 
 ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 \

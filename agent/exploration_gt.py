@@ -72,18 +72,6 @@ class GoalTransformerExplorer:
         self._search: _Search | None = None
         self._last_action: str | None = None
 
-    def __getstate__(self) -> dict[str, object]:
-        """A session snapshot keeps the search history, not the shared model (reloaded per process)."""
-        state = dict(self.__dict__)
-        state["_policy"] = None
-        return state
-
-    def __setstate__(self, state: dict[str, object]) -> None:
-        self.__dict__.update(state)
-        from models.goal_transformer.policy import load_goal_policy  # cached: one model per process
-
-        self._policy = load_goal_policy(self.config.checkpoint)
-
     def reset(self) -> None:
         """Forget the current search (the executor calls this when the target was found or changed)."""
         self._search, self._last_action = None, None

@@ -16,6 +16,9 @@ from __future__ import annotations
 import functools
 import logging
 import threading
+import time
+from collections.abc import Callable
+from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,6 +38,13 @@ LOG = logging.getLogger(__name__)
 TRUNCATED_RULE = "plan-truncated"
 """Logged when a plan is cut to ``PlannerConfig.max_subgoals`` (the seed's 300)."""
 
+
+PLANNER_CALL_OBSERVER: ContextVar[Callable[[float], None] | None] = ContextVar(
+    "planner_call_observer", default=None
+)
+"""Told the seconds of each generator call made in this context: the service binds its metrics per request
+(``app.request_log``); None (scripts, benchmarks) reports to no one. A context variable rather than a
+constructor argument because a planner outlives requests (restored sessions get the shared one)."""
 
 _LOADING = threading.Lock()
 
@@ -114,7 +124,11 @@ class ModelPlanner:
         if not (context.instruction or "").strip() and not any(t.text.strip() for t in context.dialogue):
             return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
         source = planner_source(context)
+        started = time.perf_counter()
         prediction = self.generator.predict(source)
+        observer = PLANNER_CALL_OBSERVER.get()
+        if observer is not None:
+            observer(time.perf_counter() - started)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
         repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))

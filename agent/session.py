@@ -16,18 +16,17 @@ frame to the map's, so the live frames land where the dead-reckoned history fram
 
 from __future__ import annotations
 
-import io
 import math
-import pickle
 import time
-import zlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
+from agent.classes import load_class_index
 from agent.executor import (
     Decision,
     Executor,
@@ -69,6 +68,7 @@ from agent.planning import (
     belief_after,
     make_planner,
 )
+from agent.snapshot import Name, SnapshotError, dumps, encoded_size, loads
 from agent.trace import Trace, TraceEntry
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.repair import RepairEvent
@@ -104,7 +104,7 @@ ASK_NEXT = "What should I do next?"
 """The follower's question when its plan runs out in TATC."""
 
 EXECUTOR_SIZE_EVERY = 20
-"""Steps between measurements of the executor's pickled size for the trace (pickling costs ~0.3 ms)."""
+"""Steps between measurements of the executor's encoded size for the trace (encoding costs ~0.3 ms)."""
 
 
 @dataclass(frozen=True)
@@ -367,10 +367,18 @@ class AgentSession:
             config=self.success_config,
         )
         pose = self._pose_now(mapped_pose, success.success)
+        if self.semantic_map is not None:  # a pose the map cannot hold would fail after the map grew
+            try:
+                self.semantic_map.check_pose(pose)
+            except ValueError as error:
+                given = "" if obs.pose is not None else "the dead-reckoned pose "
+                raise ObservationError("pose", f"{given}{error}") from error
         subgoal = self.current_subgoal()
         percept = self.perception_backend.perceive(obs, target_type=subgoal.obj if subgoal else None)
         perceived = time.perf_counter()
         # ---- nothing has changed so far; from here on the session moves to this step ----
+        if mapped_pose is None:
+            self.dead_reckoned = self.dead_reckoned or self.alignment is None
         if obs.pose is not None and self.alignment is None:
             self.alignment = (
                 FrameAlignment.between(obs.pose, pose) if self.dead_reckoned else FrameAlignment()
@@ -470,7 +478,6 @@ class AgentSession:
         if mapped is not None:
             return mapped
         previous = self.pose or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.mode, 0.0))
-        self.dead_reckoned = self.dead_reckoned or self.alignment is None
         return track_pose(
             previous,
             reported=None,
@@ -662,14 +669,14 @@ class AgentSession:
 
     # ----- size and serialization --------------------------------------------------------------------
     def _executor_size(self, index: int) -> int:
-        """The executor's pickled size, measured every ``EXECUTOR_SIZE_EVERY`` steps (it grows slowly)."""
+        """The executor's encoded size, measured every ``EXECUTOR_SIZE_EVERY`` steps (it grows slowly)."""
         if self.executor_size is None or index % EXECUTOR_SIZE_EVERY == 0:
             self.executor_size = _executor_bytes(self.executor)
         return self.executor_size
 
     def state_bytes(self, *, executor_bytes: int | None = None) -> int:
         """Bytes this session holds in memory: the map, the trace, the frame digest and the executor (its
-        pickled size; pass a recent ``executor_bytes`` to skip pickling it again)."""
+        size in a snapshot before compression; pass a recent ``executor_bytes`` to skip encoding it again)."""
         map_bytes = self.semantic_map.nbytes if self.semantic_map is not None else 0
         digest_bytes = self.last_digest.nbytes if self.last_digest is not None else 0
         if executor_bytes is None:
@@ -677,21 +684,54 @@ class AgentSession:
         return map_bytes + self.trace.nbytes + digest_bytes + executor_bytes
 
     def to_bytes(self) -> bytes:
-        """A compact snapshot (zlib-compressed pickle) of everything but the process-wide parts (ontology,
-        class table, planner, perception networks), which ``from_bytes`` takes from the new process."""
-        buffer = io.BytesIO()
-        _SessionPickler(buffer, self).dump(self)
-        return zlib.compress(buffer.getvalue(), level=6)
+        """A compact snapshot (``agent.snapshot``: versioned, no pickle) of everything but the process-wide
+        parts (ontology, class table, planner, perception networks, goal transformer), which are named in
+        it and taken from the loading process by ``from_bytes``."""
+        named: dict[int, Name] = {
+            id(self.ontology): ("ontology",),
+            id(self.planner): ("planner", self.planner.name),
+            id(self.perception_backend): ("perception",),
+        }
+        return dumps(self, named)
 
     @classmethod
     def from_bytes(
         cls, data: bytes, *, ontology: Ontology | None = None, planner: Planner | None = None
     ) -> AgentSession:
-        """The session ``to_bytes`` wrote, with this process's ontology, planner and perception."""
+        """The session ``to_bytes`` wrote, with this process's ontology, planner (``planner``, else the one
+        ``make_planner`` builds by the name in the snapshot) and a perception back-end for its camera.
+
+        Raises SnapshotError (a ValueError) for bytes that are not a snapshot of a session this build reads.
+        """
         ontology = ontology or load_ontology()
-        session = _SessionUnpickler(io.BytesIO(zlib.decompress(data)), ontology, planner).load()
-        assert isinstance(session, AgentSession), f"snapshot holds a {type(session).__name__}"
+        session = loads(data, _process_wide(ontology, planner))
+        if not isinstance(session, AgentSession):
+            raise SnapshotError(f"snapshot holds a {type(session).__name__}, not a session")
+        session.perception_backend = make_perception(session.perception, session.camera, session.networks)
         return session
+
+
+def _process_wide(ontology: Ontology, planner: Planner | None) -> Callable[[Name], object]:
+    """The objects ``to_bytes`` named, from this process (``from_bytes`` builds the perception back-end
+    itself, once the session's camera is known)."""
+
+    def resolve(name: Name) -> object:
+        match name:
+            case ("ontology",):
+                return ontology
+            case ("planner", planner_name):
+                return planner or make_planner(planner_name, ontology)
+            case ("perception",):
+                return None
+            case ("classes",):
+                return load_class_index()
+            case ("goal_policy", checkpoint):
+                from models.goal_transformer.policy import load_goal_policy  # torch loads here, once
+
+                return load_goal_policy(Path(checkpoint))
+        raise SnapshotError(f"snapshot names an unknown process-wide object {name!r}")
+
+    return resolve
 
 
 def build_navigator(name: NavigatorName, clearance_m: float) -> Navigator:
@@ -703,8 +743,8 @@ def build_navigator(name: NavigatorName, clearance_m: float) -> Navigator:
 
 
 def _executor_bytes(executor: Executor) -> int:
-    """Pickled size of the executor's per-session state (its shared parts excluded)."""
-    return len(pickle.dumps((executor.state, executor.navigator), protocol=pickle.HIGHEST_PROTOCOL))
+    """Size of the executor's per-session state in a snapshot, before compression (shared parts named)."""
+    return encoded_size((executor.state, executor.navigator))
 
 
 def _inputs_summary(obs: Observation) -> dict[str, Any]:
@@ -737,58 +777,3 @@ def _map_summary(semantic_map: SemanticMap, points: int, carved: int) -> dict[st
         "points": points,
         "carved": carved,
     }
-
-
-class _SessionPickler(pickle.Pickler):
-    """Pickles a session, replacing process-wide objects by names (persistent ids)."""
-
-    def __init__(self, file: io.BytesIO, session: AgentSession) -> None:
-        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
-        self._shared: dict[int, tuple[str, ...]] = {
-            id(session.ontology): ("ontology",),
-            id(session.planner): ("planner", session.planner.name),
-            id(session.perception_backend): ("perception", session.perception),
-        }
-        classes = session.semantic_map.classes if session.semantic_map is not None else None
-        if classes is not None:
-            self._shared[id(classes)] = ("classes",)
-
-    def persistent_id(self, obj: object) -> tuple[str, ...] | None:
-        return self._shared.get(id(obj))
-
-
-class _SessionUnpickler(pickle.Unpickler):
-    def __init__(self, file: io.BytesIO, ontology: Ontology, planner: Planner | None) -> None:
-        super().__init__(file)
-        self._ontology = ontology
-        self._planner = planner
-        self._camera: Camera | None = None
-
-    def persistent_load(self, pid: Any) -> object:
-        from agent.classes import load_class_index
-
-        kind = pid[0]
-        if kind == "ontology":
-            return self._ontology
-        if kind == "classes":
-            return load_class_index()
-        if kind == "planner":
-            return self._planner or make_planner(pid[1], self._ontology)
-        if kind == "perception":
-            return _LazyPerception(pid[1])
-        raise pickle.UnpicklingError(f"unknown shared object {pid!r}")
-
-    def load(self) -> Any:
-        session = super().load()
-        if isinstance(session, AgentSession) and isinstance(session.perception_backend, _LazyPerception):
-            session.perception_backend = make_perception(
-                session.perception_backend.name, session.camera, session.networks
-            )
-        return session
-
-
-@dataclass(frozen=True)
-class _LazyPerception:
-    """Placeholder until the session's camera is known (the back-end is built per camera)."""
-
-    name: str

@@ -10,7 +10,10 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from app.body_limit import BodyRefused
 from app.errors import (
     INTERNAL_ERROR,
     MALFORMED_JSON,
@@ -23,6 +26,7 @@ from app.errors import (
 _LOG = logging.getLogger("app.errors")
 _MAX_SHOWN_INPUT = 80  # characters of an offending value quoted back in a detail
 _HTTP_CODES = {400: MALFORMED_JSON, 404: NOT_FOUND, 405: METHOD_NOT_ALLOWED}
+_HTTP_METHODS = ("DELETE", "GET", "HEAD", "OPTIONS", "PATCH", "POST", "PUT")
 
 
 def error_response(
@@ -62,7 +66,7 @@ def validation_detail(errors: Sequence[Any]) -> str:
 
 async def _api_error(_: Request, error: Exception) -> JSONResponse:
     assert isinstance(error, ApiError)
-    return error_response(error.status, error.code, error.detail)
+    return error_response(error.status, error.code, error.detail, headers=error.headers or None)
 
 
 async def _validation_error(_: Request, error: Exception) -> JSONResponse:
@@ -80,19 +84,30 @@ async def _validation_error(_: Request, error: Exception) -> JSONResponse:
 
 async def _http_error(request: Request, error: Exception) -> JSONResponse:
     assert isinstance(error, StarletteHTTPException)
-    status = error.status_code
+    status, headers = error.status_code, error.headers
     if status == 404:
         detail = f"no route {request.method} {request.url.path}; the API is described at /docs"
     elif status == 405:
-        allowed = (error.headers or {}).get("Allow", "")
+        allowed = _allowed_methods(request) or (headers or {}).get("Allow", "")
+        headers = {**(headers or {}), "Allow": allowed}
         detail = f"{request.method} is not allowed on {request.url.path}; allowed: {allowed}"
     else:
         detail = str(error.detail)
-    return error_response(status, _HTTP_CODES.get(status, f"http_{status}"), detail, headers=error.headers)
+    return error_response(status, _HTTP_CODES.get(status, f"http_{status}"), detail, headers=headers)
 
 
-async def _unexpected_error(request: Request, error: Exception) -> JSONResponse:
-    _LOG.exception("unhandled_error", extra={"method": request.method, "path": request.url.path})
+def _allowed_methods(request: Request) -> str:
+    """Every method some route serves at the request's path. Starlette's 405 names only the first route
+    that matched the path (``POST /v1/sessions`` said ``Allow: POST``, though ``GET`` is served too)."""
+    routes = request.app.router.routes
+    return ", ".join(
+        method
+        for method in _HTTP_METHODS
+        if any(route.matches({**request.scope, "method": method})[0] is Match.FULL for route in routes)
+    )
+
+
+def _internal_error(error: Exception) -> JSONResponse:
     return error_response(
         500,
         INTERNAL_ERROR,
@@ -100,9 +115,51 @@ async def _unexpected_error(request: Request, error: Exception) -> JSONResponse:
     )
 
 
+async def _unexpected_error(request: Request, error: Exception) -> JSONResponse:
+    _LOG.exception("unhandled_error", extra={"method": request.method, "path": request.url.path})
+    return _internal_error(error)
+
+
+class UnhandledErrors:
+    """ASGI middleware answering an unexpected exception with the 500 body, without re-raising it.
+
+    Starlette's ServerErrorMiddleware sends the 500 and then re-raises so the server sees the error; uvicorn
+    then drops the keep-alive connection without ``Connection: close``, so a pooled client's next, valid
+    request on that connection failed too. Here the error is logged (``unhandled_error`` with its
+    traceback) and answered, and the request ends normally. An error after the response started cannot be
+    answered any more: it is re-raised, and the server closes the connection, as it must.
+    """
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        started = False
+
+        async def tracking_send(message: Message) -> None:
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, receive, tracking_send)
+        except BodyRefused:
+            raise  # the body limits' own signal: BodySizeLimit answers it
+        except Exception as error:
+            _LOG.exception("unhandled_error", extra={"method": scope["method"], "path": scope["path"]})
+            if started:
+                raise
+            await _internal_error(error)(scope, receive, send)
+
+
 def install_error_handlers(app: FastAPI) -> None:
     """Register the handlers that shape every error body."""
     app.add_exception_handler(ApiError, _api_error)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
-    app.add_exception_handler(Exception, _unexpected_error)
+    app.add_exception_handler(Exception, _unexpected_error)  # errors raised outside UnhandledErrors
+    # Added before the other middleware, so it sits innermost: the request log sees its 500.
+    app.add_middleware(UnhandledErrors)

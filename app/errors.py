@@ -6,7 +6,7 @@ stable strings (a client branches on them); details are for people and may chang
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 # Request shape and transport.
 VALIDATION_ERROR = "validation_error"
@@ -16,12 +16,20 @@ NOT_FOUND = "not_found"
 METHOD_NOT_ALLOWED = "method_not_allowed"
 INTERNAL_ERROR = "internal_error"
 NOT_READY = "not_ready"
+REQUEST_TIMEOUT = "request_timeout"
+OVERLOADED = "overloaded"
 
 # Sessions.
 SESSION_NOT_FOUND = "session_not_found"
 TOO_MANY_SESSIONS = "too_many_sessions"
 STEP_IN_PROGRESS = "step_in_progress"
 STEP_OUT_OF_ORDER = "step_out_of_order"
+LEASE_LOST = "lease_lost"
+SESSION_UNREADABLE = "session_unreadable"
+
+# Keys and quotas.
+UNAUTHORIZED = "unauthorized"
+RATE_LIMITED = "rate_limited"
 
 # Session content.
 PLANNER_UNAVAILABLE = "planner_unavailable"
@@ -34,6 +42,7 @@ CAMERA_TOO_LARGE = "camera_too_large"
 UTTERANCE_TOO_LONG = "utterance_too_long"
 TOO_MANY_UTTERANCES = "too_many_utterances"
 HISTORY_MISMATCH = "history_mismatch"
+HISTORY_TOO_LONG = "history_too_long"
 
 # TEACh's RemoteModel protocol.
 EDH_INSTANCE_NOT_STARTED = "edh_instance_not_started"
@@ -45,6 +54,7 @@ MISSING_OBSERVATION = "missing_observation"
 INVALID_IMAGE = "invalid_image"
 INVALID_DEPTH = "invalid_depth"
 INVALID_SEGMENTATION = "invalid_segmentation"
+INVALID_POSE = "invalid_pose"
 
 
 def unknown_object_type(field: str, name: str, suggestions: Sequence[str]) -> ApiError:
@@ -59,8 +69,9 @@ def unknown_object_type(field: str, name: str, suggestions: Sequence[str]) -> Ap
 class ApiError(Exception):
     """A failure the client caused (or must know about), rendered as ``{"error", "detail"}``."""
 
-    def __init__(self, status: int, code: str, detail: str) -> None:
+    def __init__(self, status: int, code: str, detail: str, headers: Mapping[str, str] | None = None) -> None:
         super().__init__(f"{status} {code}: {detail}")
         self.status = status
         self.code = code
         self.detail = detail
+        self.headers = dict(headers or {})  # e.g. Retry-After on a 429, WWW-Authenticate on a 401

@@ -9,8 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from app.errors import CAMERA_TOO_LARGE, TOO_MANY_UTTERANCES, UTTERANCE_TOO_LONG, ApiError
-from app.schemas import CameraSpec, Utterance
+from app.errors import (
+    CAMERA_TOO_LARGE,
+    HISTORY_TOO_LONG,
+    TOO_MANY_UTTERANCES,
+    UTTERANCE_TOO_LONG,
+    ApiError,
+)
+from app.schemas import CameraSpec, History, Utterance
 from app.settings import Settings
 
 
@@ -49,3 +55,26 @@ def check_dialogue(dialogue: Sequence[Utterance], settings: Settings, already: i
         )
     for index, turn in enumerate(dialogue):
         check_utterance_text(f"dialogue[{index}].text", turn.text, settings)
+
+
+def check_history_length(actions: int, settings: Settings, field: str = "history.actions") -> None:
+    """413 ``history_too_long`` past ``max_history_actions``: checked first, because each action is
+    converted to subgoals and each frame decoded and replayed into the map (200k actions took 8.9 s)."""
+    if actions > settings.max_history_actions:
+        raise ApiError(
+            413,
+            HISTORY_TOO_LONG,
+            f"{field} has {actions} actions; at most {settings.max_history_actions} are accepted (a TEACh "
+            "game ends at 1000 steps; setting JARVIS_MAX_HISTORY_ACTIONS)",
+        )
+
+
+def check_history(history: History | None, settings: Settings) -> None:
+    """The EDH history's length (above), and its frame lists' by the same bound (one frame per action)."""
+    if history is None:
+        return
+    check_history_length(len(history.actions), settings)
+    for name in ("images", "depth", "segmentation"):
+        frames = getattr(history, name)
+        if frames is not None:
+            check_history_length(len(frames), settings, f"history.{name}")

@@ -7,22 +7,32 @@ reached through ``app.api.deps`` (STYLE.md §5).
 from __future__ import annotations
 
 import logging
+import os
+import sys
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 
-from fastapi import FastAPI
+import cv2
+from fastapi import Depends, FastAPI
 
-from app.api.routes import health, sessions, steps, teach
+from app.access import KeyCheck
+from app.api.routes import health, metrics, sessions, steps, teach
 from app.body_limit import BodySizeLimit
+from app.deadline import refuse_stale_request
 from app.error_handlers import install_error_handlers
+from app.keys import KeyRing
 from app.logging_json import configure_json_logging
+from app.metrics import ServiceMetrics
+from app.preload import ModelPreload
+from app.rate_limit import InMemoryRateLimiter, RateLimiter, RedisRateLimiter
+from app.redis_store import RedisSessionStore, SnapshotObserver
 from app.request_log import RequestLog
 from app.settings import Settings
-from app.store import InMemorySessionStore
-from app.teach import START_EDH_PATH, TeachEpisodes
+from app.store import InMemorySessionStore, SessionStore
+from app.teach import START_EDH_PATH
 from app.version import service_version
-from symbolic.ontology import load_ontology
+from symbolic.ontology import Ontology, load_ontology
 
 _LOG = logging.getLogger("app")
 
@@ -40,18 +50,26 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        if settings.torch_threads is not None:
-            _limit_torch_threads(settings.torch_threads)
+        limit_threads(settings.threads_per_worker)
         app.state.ontology = load_ontology()
-        app.state.store = InMemorySessionStore(settings.max_sessions, settings.session_ttl_s, clock=clock)
-        app.state.teach_episodes = TeachEpisodes()
+        app.state.keys = KeyRing.configured(settings.api_keys, settings.api_keys_file)
+        app.state.store, app.state.rate_limiter = build_store(
+            settings, app.state.ontology, clock, on_snapshot=app.state.metrics.observe_snapshot
+        )
+        _log_access_mode(settings, app.state.keys)
+        # The models sessions need load in the background; /readyz says 503 until they are in (app.preload).
+        app.state.model_preload = ModelPreload.for_settings(settings) if settings.preload_models else None
+        if app.state.model_preload is not None:
+            app.state.model_preload.start()
         _LOG.info(
             "service_ready", extra={"version": app.version, "object_types": len(app.state.ontology.types)}
         )
         yield
         _LOG.info("service_stopping", extra={"sessions": len(app.state.store)})
+        app.state.store.close()
+        app.state.rate_limiter.close()
         app.state.store = None
-        app.state.teach_episodes = None
+        app.state.rate_limiter = None
         app.state.ontology = None
 
     app = FastAPI(
@@ -59,9 +77,15 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         version=service_version(),
         description=DESCRIPTION,
         lifespan=lifespan,
+        dependencies=[Depends(refuse_stale_request)],  # 503 overloaded after request_queue_deadline_s
     )
     app.state.settings = settings
+    app.state.model_preload = None
+    app.state.metrics = ServiceMetrics(
+        lambda: None if getattr(app.state, "store", None) is None else len(app.state.store)
+    )
     app.include_router(health.router)
+    app.include_router(metrics.router)
     app.include_router(sessions.router)
     app.include_router(steps.router)
     app.include_router(teach.router)
@@ -71,14 +95,70 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         BodySizeLimit,
         max_body_bytes=settings.max_body_bytes,
         path_limits={START_EDH_PATH: (settings.max_edh_body_bytes, "JARVIS_MAX_EDH_BODY_BYTES")},
+        read_timeout_s=settings.body_read_timeout_s,
     )
-    app.add_middleware(RequestLog)
+    app.add_middleware(KeyCheck, settings=settings)  # 401/429 before any body is read
+    app.add_middleware(RequestLog, metrics=app.state.metrics)  # request id, log event, HTTP metrics
     return app
 
 
-def _limit_torch_threads(threads: int) -> None:
-    """The networks' intra-op pool size; torch applies it to every thread started afterwards, which
-    includes the worker threads requests run in."""
-    import torch
+def build_store(
+    settings: Settings,
+    ontology: Ontology,
+    clock: Callable[[], float],
+    on_snapshot: SnapshotObserver | None = None,
+) -> tuple[SessionStore, RateLimiter]:
+    """The session store and rate limiter the settings name: this process's, or Redis's (shared by every
+    worker). ``clock`` drives the in-memory ones; Redis keeps time by its own clock. ``on_snapshot`` hears
+    of every snapshot Redis's store writes or reads (the metrics)."""
+    if not settings.uses_redis:
+        store = InMemorySessionStore(settings.max_sessions, settings.session_ttl_s, clock=clock)
+        return store, InMemoryRateLimiter(clock)
+    redis_store = RedisSessionStore(
+        settings.store,
+        max_sessions=settings.max_sessions,
+        ttl_s=settings.session_ttl_s,
+        lease_s=settings.session_lease_s,
+        ontology=ontology,
+        prefix=settings.store_prefix,
+        on_snapshot=on_snapshot,
+    )
+    return redis_store, RedisRateLimiter(settings.store, prefix=settings.store_prefix)
 
-    torch.set_num_threads(threads)
+
+def _log_access_mode(settings: Settings, keys: KeyRing) -> None:
+    where = (
+        "memory (this process)" if not settings.uses_redis else f"redis ({_without_password(settings.store)})"
+    )
+    if keys.open:
+        _LOG.warning(
+            "service_open",
+            extra={
+                "store": where,
+                "detail": "no API keys configured (JARVIS_API_KEYS, JARVIS_API_KEYS_FILE): any client may "
+                "read, step and delete any session, and no per-key quota applies",
+            },
+        )
+    else:
+        _LOG.info("service_keys", extra={"store": where, "keys": len(keys)})
+
+
+def _without_password(url: str) -> str:
+    """A store URL fit for a log line: the password, if any, replaced."""
+    scheme, sep, rest = url.partition("://")
+    credentials, at, host = rest.rpartition("@")
+    if not at:
+        return url
+    user = credentials.split(":", 1)[0]
+    return f"{scheme}{sep}{user}:***@{host}" if ":" in credentials else f"{scheme}{sep}***@{host}"
+
+
+def limit_threads(threads: int) -> None:
+    """The numeric libraries' thread pools in this worker process. Torch applies its setting to every
+    thread started afterwards, which includes the worker threads requests run in; a torch not imported yet
+    reads ``OMP_NUM_THREADS`` when it is (importing it here would cost an oracle-only service 1-2 s)."""
+    cv2.setNumThreads(threads)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(threads)
+    else:
+        os.environ["OMP_NUM_THREADS"] = str(threads)

@@ -19,6 +19,24 @@ from symbolic.thor import CAMERA_HEIGHT_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, TEA
 
 _BASE64: dict[str, JsonValue] = {"contentEncoding": "base64"}
 
+MIN_IMAGE_SIDE = 16
+"""Smallest camera width or height, pixels (the largest is the setting max_image_side)."""
+WORLD_EXTENT_M = 100.0
+"""Largest |x| or |z| of a pose, metres. The world is a house: AI2-THOR's and TEACh's floor plans span
+under 20 m, so 100 m leaves room for any frame origin while keeping map cell indices small (a pose of 1e9
+overflowed the map's int32 cells). A pose the session's map cannot reach is refused at the step too."""
+MIN_HFOV_DEG = 10.0
+"""Narrowest camera, degrees: at 10° a frame sees a 1 m wide strip at the map's 6 m depth limit, too
+little to map or navigate by, and toward 0° the focal length overflows (1e-300° made every step fail)."""
+MAX_HFOV_DEG = 150.0
+"""Widest camera, degrees: the agent projects depth through a pinhole model, whose edge rays stretch as
+tan(hfov/2): 3.7 times the centre's at 150°, 115 times at 179°, which is a fisheye, not a pinhole."""
+MIN_CAMERA_HEIGHT_M = 0.1
+"""Lowest camera, metres: the map's floor bin ends at 0.05 m, so a camera must stand above it to see the
+floor as floor."""
+MAX_CAMERA_HEIGHT_M = 3.0
+"""Highest camera, metres: the map's top height bin starts at 2.3 m (a room's ceiling)."""
+
 
 class RequestModel(BaseModel):
     """Bodies clients send: unknown fields are errors (a typo must not be silently ignored)."""
@@ -37,19 +55,28 @@ class CameraSpec(RequestModel):
     """The caller's egocentric camera; frames sent to the step route must have this size."""
 
     width: int = Field(
-        ge=16, description="Image width in pixels (at most the setting max_image_side).", examples=[900]
+        ge=MIN_IMAGE_SIDE,
+        description="Image width in pixels (at most the setting max_image_side).",
+        examples=[900],
     )
     height: int = Field(
-        ge=16, description="Image height in pixels (at most the setting max_image_side).", examples=[900]
+        ge=MIN_IMAGE_SIDE,
+        description="Image height in pixels (at most the setting max_image_side).",
+        examples=[900],
     )
     hfov_deg: float = Field(
-        gt=0.0, lt=180.0, description="Horizontal field of view in degrees, in (0, 180).", examples=[90.0]
+        ge=MIN_HFOV_DEG,
+        le=MAX_HFOV_DEG,
+        description=f"Horizontal field of view in degrees, in [{MIN_HFOV_DEG:g}, {MAX_HFOV_DEG:g}] (a "
+        "pinhole camera; TEACh's is 90, ALFRED's 60).",
+        examples=[90.0],
     )
     height_m: float = Field(
         default=CAMERA_HEIGHT_M,
-        gt=0.0,
-        le=3.0,
-        description=f"Camera height above the floor in metres (AI2-THOR's default agent: {CAMERA_HEIGHT_M}).",
+        ge=MIN_CAMERA_HEIGHT_M,
+        le=MAX_CAMERA_HEIGHT_M,
+        description=f"Camera height above the floor in metres, in [{MIN_CAMERA_HEIGHT_M:g}, "
+        f"{MAX_CAMERA_HEIGHT_M:g}] (AI2-THOR's default agent: {CAMERA_HEIGHT_M}).",
         examples=[CAMERA_HEIGHT_M],
     )
 
@@ -80,8 +107,18 @@ class UtteranceCreate(Utterance):
 class Pose(RequestModel):
     """The agent's pose in the world frame, when the caller knows it (else it is dead-reckoned)."""
 
-    x: float = Field(description="East position in metres.", examples=[1.25])
-    z: float = Field(description="North position in metres.", examples=[-0.5])
+    x: float = Field(
+        ge=-WORLD_EXTENT_M,
+        le=WORLD_EXTENT_M,
+        description=f"East position in metres, within ±{WORLD_EXTENT_M:g}.",
+        examples=[1.25],
+    )
+    z: float = Field(
+        ge=-WORLD_EXTENT_M,
+        le=WORLD_EXTENT_M,
+        description=f"North position in metres, within ±{WORLD_EXTENT_M:g}.",
+        examples=[-0.5],
+    )
     yaw: float = Field(
         ge=0.0, lt=360.0, description="Heading in degrees, [0, 360); 0 faces +z.", examples=[90.0]
     )
@@ -410,6 +447,14 @@ class UtteranceResult(ResponseModel):
         examples=[
             "recorded; the oracle planner follows its given subgoals and does not re-plan from dialogue"
         ],
+    )
+
+
+class SessionList(ResponseModel):
+    """The caller's live sessions (its API key's; every session when the service runs without keys)."""
+
+    session_ids: list[str] = Field(
+        description="Ids in creation order, oldest first.", examples=[["3f2c9a0e5b7d4c1e"]]
     )
 
 

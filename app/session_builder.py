@@ -34,7 +34,7 @@ from app.errors import (
     ApiError,
     unknown_object_type,
 )
-from app.limits import check_camera, check_dialogue
+from app.limits import check_camera, check_dialogue, check_history, check_history_length
 from app.observation import history_observation
 from app.schemas import CameraSpec, History, HistoryAction, SessionCreate, SubgoalIn
 from app.settings import Settings
@@ -225,6 +225,9 @@ def build_session(
     ``history_frames``: the history's RGB frames as encoded files (TEACh's ``edh_history_images``), one
     per ``body.history`` action, instead of base64 ``history.images``; decoded one at a time.
     """
+    check_history(body.history, settings)
+    if history_frames is not None:
+        check_history_length(len(history_frames), settings, history_frames_field)
     camera_spec = body.camera or default_camera(body.mode)
     check_camera(camera_spec, settings)
     check_dialogue(body.dialogue, settings)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from symbolic.data_dir import default_data_dir
@@ -36,15 +36,23 @@ class Settings(BaseSettings):
         default=None,
         description="Segmentation network directory for learned perception; None: the shipped one.",
     )
-    torch_threads: int | None = Field(
-        default=None,
+    threads_per_worker: int = Field(
+        default=1,
         ge=1,
-        description="Threads each network call may use; None keeps torch's default of one per core. Set 1 "
-        "when several service processes share a machine: two services with the default ran learned "
-        "episodes about three times slower on 2 cores. One service stepping two sessions at once ran "
-        "about 15% faster with the default than with 1. DESIGN.md §8's budgets are measured with one.",
+        description="Threads each worker process's numeric libraries (torch's networks, OpenCV) may use. "
+        "One: a machine's cores are shared out by worker processes (JARVIS_WORKERS), not by threads inside "
+        "each, which fought over the cores (two services with torch's default of a thread per core ran "
+        "learned episodes about three times slower on 2 cores; the planner took 1.5-4 s at two threads "
+        "under load against 0.3 s at one). DESIGN.md §8's budgets are measured with one.",
     )
     log_level: str = Field(default="info", description="Root log level; logs are one JSON event per line.")
+    preload_models: bool = Field(
+        default=True,
+        description="Load the language planner and (when present) the learned perception networks at "
+        "start-up, in the background: /readyz answers 503 until they are loaded (the planner takes 6-18 s), "
+        "and a request that needs one waits for the load instead of paying it. False: each loads on first "
+        "use (tests that need no model, quick local runs).",
+    )
 
     # Limits: a serving process must bound what one client can make it hold.
     max_sessions: int = Field(
@@ -77,8 +85,96 @@ class Settings(BaseSettings):
         "history as JPEG files (900x900 frames of ~80 kB; hundreds per instance).",
     )
     max_edh_history_frames: int = Field(
-        default=2000, ge=1, description="History images accepted by POST /start_new_edh_instance."
+        default=1000,
+        ge=1,
+        description="History images accepted by POST /start_new_edh_instance: one per history action, and "
+        "a TEACh game ends at 1000 steps, so no real EDH instance has more; each frame is decoded and "
+        "replayed into the map (2,000 frames with learned perception took tens of CPU-minutes).",
     )
     session_lock_timeout_s: float = Field(
         default=1.0, gt=0, description="Seconds a request waits for a busy session before answering 409."
     )
+
+    # Input hardening: bounds on what is cheap to send but costly to process, and on slow clients.
+    max_history_actions: int = Field(
+        default=1000,
+        ge=1,
+        description="Longest EDH history (history.actions, TEACh's driver_action_history) accepted; more "
+        "answer 413 history_too_long before any work. A TEACh game ends at 1000 steps, so a real EDH "
+        "history is shorter; 200k actions took 8.9 s of CPU before this bound.",
+    )
+    body_read_timeout_s: float = Field(
+        default=15.0,
+        gt=0,
+        description="Seconds a request body may go without a new chunk before the request answers 408 "
+        "request_timeout (Connection: close): a client that sends headers and part of a body must not "
+        "hold a connection and its buffers forever. A 900x900 step body is ~1 MB, seconds on a slow link.",
+    )
+    request_queue_deadline_s: float = Field(
+        default=20.0,
+        gt=0,
+        description="Seconds a request may wait, from its body being read to its handler starting (handlers "
+        "queue for FastAPI's worker threads under overload), before it answers 503 overloaded with "
+        "Retry-After instead of doing stale work: the harness client gives up after 30 s, so an answer "
+        "begun after 20 s of queueing would mostly go to nobody.",
+    )
+
+    # Scale-out, keys and quotas (DESIGN.md §4, §9).
+    store: str = Field(
+        default="memory",
+        description="Where sessions live: 'memory' (this process; the embedded default, one worker) or a "
+        "Redis URL such as redis://127.0.0.1:6379/0 (shared by every worker process and host; snapshots "
+        "after every change, so a worker killed mid-episode loses nothing).",
+    )
+    store_prefix: str = Field(
+        default="jarvis",
+        pattern=r"^[A-Za-z0-9._-]{1,32}$",
+        description="Prefix of every Redis key, so several services (or test runs) can share one Redis.",
+    )
+    workers: int | None = Field(
+        default=None,
+        ge=1,
+        description="Worker processes `python -m app` starts behind its port. None: one per core with a "
+        "Redis store, 1 with the in-memory store (which cannot be shared: more than one is refused).",
+    )
+    session_lease_s: float = Field(
+        default=6.0,
+        gt=0,
+        description="Seconds a request's hold on a session lasts in Redis unless its worker renews it (every "
+        "third of that while it works): a worker killed mid-step blocks that session for at most this long.",
+    )
+    api_keys: str | None = Field(
+        default=None,
+        description="API keys as comma-separated name:sha256-hex entries (hashes only; `python -m app.keys "
+        "new NAME` makes one). With keys configured every route but health and readiness needs one.",
+    )
+    api_keys_file: Path | None = Field(
+        default=None,
+        description='JSON-lines file of keys: {"name", "sha256", "max_sessions"?, "rate_per_s"?, "burst"?}.',
+    )
+    max_sessions_per_key: int = Field(
+        default=64,
+        ge=1,
+        description="Live sessions one API key may hold (a key's own max_sessions overrides it); creation "
+        "past it answers 429 with Retry-After. Applies when keys are configured.",
+    )
+    rate_per_key_per_s: float = Field(
+        default=200.0,
+        gt=0,
+        description="Requests per second one API key may send on average: 32 sessions stepping at ~5 steps/s "
+        "each fit; a runaway client of one key cannot starve the others.",
+    )
+    rate_burst_per_key: int = Field(
+        default=400, ge=1, description="Requests one API key may send at once above its average rate."
+    )
+
+    @field_validator("store")
+    @classmethod
+    def _store_is_memory_or_redis(cls, value: str) -> str:
+        if value != "memory" and not value.startswith(("redis://", "rediss://", "unix://")):
+            raise ValueError(f"store must be 'memory' or a Redis URL (redis://host:port/db), got {value!r}")
+        return value
+
+    @property
+    def uses_redis(self) -> bool:
+        return self.store != "memory"

@@ -1,8 +1,13 @@
-"""Where live sessions are kept between requests: an interface and its in-memory implementation.
+"""Where live sessions are kept between requests: the interface, its errors, and the in-memory store.
 
-DESIGN.md §9: one replica holds its sessions in memory (this module); past one machine the store becomes
-Redis behind the same interface. Handlers are sync and run in FastAPI's threadpool, so the store is
-thread-safe, and each session has its own lock so two steps of one session never interleave (§4).
+DESIGN.md §9: one replica holds its sessions in memory (``InMemorySessionStore``, the embedded default);
+several worker processes or hosts share ``app.redis_store.RedisSessionStore`` behind the same interface.
+Handlers are sync and run in FastAPI's threadpool, so a store is thread-safe, and a session is held by one
+request at a time (a lock here, a lease in Redis), so two steps of one session never interleave (§4).
+
+A session belongs to an owner (the API key's name; None when the service runs without keys): another
+owner's request finds no such session. TEACh's runner names its episodes (``edh_name``), so the store also
+keeps, per owner, which session serves each name.
 """
 
 from __future__ import annotations
@@ -12,13 +17,13 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 from agent.session import AgentSession
 
 
 class SessionNotFound(LookupError):
-    """No live session has this id (never created, deleted, or evicted after its idle TTL)."""
+    """No live session has this id for this owner (never created, deleted, expired, or another owner's)."""
 
     def __init__(self, session_id: str) -> None:
         super().__init__(session_id)
@@ -26,11 +31,14 @@ class SessionNotFound(LookupError):
 
 
 class StoreFull(RuntimeError):
-    """The store holds ``capacity`` live sessions already."""
+    """The store, or the owner's share of it, holds its maximum of live sessions already."""
 
-    def __init__(self, capacity: int) -> None:
-        super().__init__(f"the store holds its maximum of {capacity} sessions")
+    def __init__(self, capacity: int, retry_after_s: float, *, per_owner: bool = False) -> None:
+        who = "this API key" if per_owner else "the store"
+        super().__init__(f"{who} holds its maximum of {capacity} sessions")
         self.capacity = capacity
+        self.retry_after_s = retry_after_s  # seconds until the oldest idle session expires
+        self.per_owner = per_owner
 
 
 class SessionBusy(RuntimeError):
@@ -42,31 +50,68 @@ class SessionBusy(RuntimeError):
         self.timeout_s = timeout_s
 
 
+@dataclass
+class StoredSession:
+    """A session as a request holds it: the agent, its owner, and the HTTP layer's JSON notes about it
+    (TEACh's protocol state). Replacing ``session`` inside ``hold`` replaces the stored session."""
+
+    session: AgentSession
+    owner: str | None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
 class SessionStore(Protocol):
-    """Live sessions by id, bounded in number and idle time."""
+    """Live sessions by id, bounded in number and idle time, each owned by one API key (or by nobody)."""
 
-    def create(self, session: AgentSession) -> None:
-        """Add a new session; raises StoreFull at capacity."""
+    def create(
+        self,
+        session: AgentSession,
+        owner: str | None,
+        meta: dict[str, Any] | None = None,
+        *,
+        owner_cap: int | None = None,
+    ) -> None:
+        """Add a new session; raises StoreFull at capacity (or at ``owner_cap`` sessions of this owner)."""
         ...
 
-    def get(self, session_id: str) -> AgentSession:
-        """The live session; raises SessionNotFound."""
+    def hold(
+        self, session_id: str, owner: str | None, timeout_s: float, *, write: bool
+    ) -> AbstractContextManager[StoredSession]:
+        """Exclusive use of a session while the block runs, restarting its idle TTL; raises SessionNotFound
+        or SessionBusy. With ``write``, what the block left is the new stored state when it ends normally;
+        a block that raises leaves the stored state as it was."""
         ...
 
-    def hold(self, session_id: str, timeout_s: float) -> AbstractContextManager[AgentSession]:
-        """Exclusive use of a session while the block runs; raises SessionNotFound or SessionBusy."""
-        ...
-
-    def delete(self, session_id: str) -> None:
+    def delete(self, session_id: str, owner: str | None) -> None:
         """Forget a session; raises SessionNotFound."""
         ...
 
-    def touch(self, session_id: str) -> None:
-        """Mark the session used now, restarting its idle TTL; raises SessionNotFound."""
+    def ids(self, owner: str | None) -> list[str]:
+        """The owner's live session ids in creation order (every session's when ``owner`` is None)."""
         ...
 
-    def ids(self) -> list[str]:
-        """Ids of the live sessions in creation order."""
+    def finished(self, session_id: str) -> bool:
+        """Whether the session answered Stop, or is gone (TEACh's finished episodes make room)."""
+        ...
+
+    def bind_name(self, owner: str | None, name: str, session_id: str) -> str | None:
+        """Record that ``name`` (a TEACh ``edh_name``) is served by the session; returns the id replaced."""
+        ...
+
+    def named(self, owner: str | None, name: str) -> str | None:
+        """The session id serving ``name`` for this owner, if any."""
+        ...
+
+    def unbind_name(self, owner: str | None, name: str) -> None:
+        """Forget which session serves ``name`` (no error when none does)."""
+        ...
+
+    def names(self, owner: str | None) -> list[tuple[str, str]]:
+        """(name, session id) of the owner's named sessions, oldest first."""
+        ...
+
+    def close(self) -> None:
+        """Release connections; the store is not used afterwards."""
         ...
 
     def __len__(self) -> int: ...
@@ -74,13 +119,17 @@ class SessionStore(Protocol):
 
 @dataclass
 class _Entry:
-    session: AgentSession
+    stored: StoredSession
     last_used: float  # seconds on the store's clock
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
 class InMemorySessionStore:
-    """Sessions in a dict of this process; idle ones are evicted lazily on every access."""
+    """Sessions in a dict of this process; idle ones are evicted lazily on every access.
+
+    One process only: another worker process would not see these sessions, so the launcher refuses more
+    than one worker with this store (``app.__main__``).
+    """
 
     def __init__(self, max_sessions: int, ttl_s: float, clock: Callable[[], float] = time.monotonic) -> None:
         if max_sessions < 1:
@@ -91,62 +140,104 @@ class InMemorySessionStore:
         self.ttl_s = ttl_s
         self._clock = clock
         self._entries: dict[str, _Entry] = {}
+        self._names: dict[tuple[str | None, str], str] = {}  # insertion order is oldest first
         self._guard = threading.Lock()
 
-    def create(self, session: AgentSession) -> None:
+    def create(
+        self,
+        session: AgentSession,
+        owner: str | None,
+        meta: dict[str, Any] | None = None,
+        *,
+        owner_cap: int | None = None,
+    ) -> None:
         with self._guard:
             self._evict_idle()
             if session.session_id in self._entries:
                 raise ValueError(f"session id {session.session_id} is already in use")
             if len(self._entries) >= self.max_sessions:
-                raise StoreFull(self.max_sessions)
-            self._entries[session.session_id] = _Entry(session=session, last_used=self._clock())
-
-    def get(self, session_id: str) -> AgentSession:
-        with self._guard:
-            return self._live_entry(session_id).session
+                raise StoreFull(self.max_sessions, self._retry_after(self._entries.values()))
+            if owner_cap is not None:
+                mine = [e for e in self._entries.values() if e.stored.owner == owner]
+                if len(mine) >= owner_cap:
+                    raise StoreFull(owner_cap, self._retry_after(mine), per_owner=True)
+            stored = StoredSession(session, owner, dict(meta or {}))
+            self._entries[session.session_id] = _Entry(stored=stored, last_used=self._clock())
 
     @contextmanager
-    def _holding(self, session_id: str, timeout_s: float) -> Iterator[AgentSession]:
+    def _holding(self, session_id: str, owner: str | None, timeout_s: float) -> Iterator[StoredSession]:
         with self._guard:
-            entry = self._live_entry(session_id)
+            entry = self._live_entry(session_id, owner)
             entry.last_used = self._clock()
         if not entry.lock.acquire(timeout=timeout_s):
             raise SessionBusy(session_id, timeout_s)
         try:
-            yield entry.session
+            yield entry.stored
         finally:
             entry.lock.release()
 
-    def hold(self, session_id: str, timeout_s: float) -> AbstractContextManager[AgentSession]:
-        return self._holding(session_id, timeout_s)
+    def hold(
+        self, session_id: str, owner: str | None, timeout_s: float, *, write: bool
+    ) -> AbstractContextManager[StoredSession]:
+        # In one process the held object is the stored one: a write needs no copy back.
+        return self._holding(session_id, owner, timeout_s)
 
-    def delete(self, session_id: str) -> None:
+    def delete(self, session_id: str, owner: str | None) -> None:
         with self._guard:
-            self._live_entry(session_id)
+            self._live_entry(session_id, owner)
             del self._entries[session_id]
 
-    def touch(self, session_id: str) -> None:
-        with self._guard:
-            self._live_entry(session_id).last_used = self._clock()
-
-    def ids(self) -> list[str]:
+    def ids(self, owner: str | None) -> list[str]:
         with self._guard:
             self._evict_idle()
-            return list(self._entries)
+            return [sid for sid, e in self._entries.items() if owner is None or e.stored.owner == owner]
+
+    def finished(self, session_id: str) -> bool:
+        with self._guard:
+            entry = self._entries.get(session_id)
+            return entry is None or entry.stored.session.done
+
+    def bind_name(self, owner: str | None, name: str, session_id: str) -> str | None:
+        with self._guard:
+            previous = self._names.pop((owner, name), None)
+            self._names[(owner, name)] = session_id
+            return previous
+
+    def named(self, owner: str | None, name: str) -> str | None:
+        with self._guard:
+            return self._names.get((owner, name))
+
+    def unbind_name(self, owner: str | None, name: str) -> None:
+        with self._guard:
+            self._names.pop((owner, name), None)
+
+    def names(self, owner: str | None) -> list[tuple[str, str]]:
+        with self._guard:
+            return [(name, sid) for (who, name), sid in self._names.items() if who == owner]
+
+    def close(self) -> None:
+        with self._guard:
+            self._entries.clear()
+            self._names.clear()
 
     def __len__(self) -> int:
         with self._guard:
             self._evict_idle()
             return len(self._entries)
 
-    def _live_entry(self, session_id: str) -> _Entry:
-        """The entry if present and not idle past the TTL (caller holds the guard)."""
+    def _live_entry(self, session_id: str, owner: str | None) -> _Entry:
+        """The entry if present, the owner's, and not idle past the TTL (caller holds the guard)."""
         self._evict_idle()
         entry = self._entries.get(session_id)
-        if entry is None:
+        if entry is None or entry.stored.owner != owner:
             raise SessionNotFound(session_id)
         return entry
+
+    def _retry_after(self, entries: Any) -> float:
+        """Seconds until the longest-idle of these sessions expires (when a slot frees at the latest)."""
+        now = self._clock()
+        oldest = min((e.last_used for e in entries), default=now)
+        return max(1.0, oldest + self.ttl_s - now)
 
     def _evict_idle(self) -> None:
         """Drop sessions idle longer than the TTL, never one a request holds (caller holds the guard)."""
@@ -156,3 +247,6 @@ class InMemorySessionStore:
         ]
         for session_id in idle:
             del self._entries[session_id]
+        if idle:
+            gone = set(idle)
+            self._names = {key: sid for key, sid in self._names.items() if sid not in gone}

@@ -23,10 +23,9 @@ A repeated ``img_name`` gets the same answer again; a ``prev_action`` that is no
 from __future__ import annotations
 
 import json
-import threading
 import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, cast
 
@@ -41,18 +40,21 @@ from app.error_handlers import validation_detail
 from app.errors import (
     EDH_INSTANCE_NOT_STARTED,
     MALFORMED_FORM,
+    SESSION_NOT_FOUND,
     STEP_IN_PROGRESS,
     STEP_OUT_OF_ORDER,
-    TOO_MANY_SESSIONS,
     UNSUPPORTED_MEDIA_TYPE,
     VALIDATION_ERROR,
     ApiError,
 )
+from app.limits import check_history_length
 from app.observation import image_size, observation_error, rgb_observation
+from app.ownership import Caller, owner_cap, too_many_sessions
 from app.schemas import CameraSpec, SessionCreate, TeachAction, TeachPrevAction, TeachStarted
 from app.session_builder import build_session
 from app.settings import Settings
-from app.store import SessionBusy, SessionNotFound, SessionStore, StoreFull
+from app.store import SessionNotFound, SessionStore, StoredSession, StoreFull
+from app.store_errors import store_errors_as_api_errors
 from app.views import plan_out
 from symbolic.ontology import Ontology
 from symbolic.thor import OBJECT_ACTIONS, TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
@@ -165,48 +167,38 @@ async def read_teach_form(request: Request, settings: Settings) -> TeachForm:
 # ---- one session per EDH instance ------------------------------------------------------------------------
 
 
+TEACH_NOTES = "teach"
+"""Key of the TEACh protocol's state in the stored session's notes (``StoredSession.meta``), kept with the
+session's snapshot so a retried frame gets its answer from any worker."""
+
+
 @dataclass
 class TeachEpisode:
-    """What the TEACh layer keeps about one EDH instance beside its session."""
+    """What the TEACh layer keeps about one EDH instance beside its session (JSON in the session's notes)."""
 
     edh_name: str
-    session_id: str
     pending: SessionCreate | None
     """The session's request while its camera may still follow the first frame (no history images)."""
     last_img_name: str | None = None
     last_answer: TeachAction | None = None
 
+    def notes(self) -> dict[str, Any]:
+        return {
+            "edh_name": self.edh_name,
+            "pending": self.pending.model_dump(mode="json") if self.pending is not None else None,
+            "last_img_name": self.last_img_name,
+            "last_answer": self.last_answer.model_dump(mode="json") if self.last_answer is not None else None,
+        }
 
-@dataclass
-class TeachEpisodes:
-    """EDH instance name -> its episode (thread-safe: handlers run in FastAPI's threadpool)."""
-
-    _by_name: dict[str, TeachEpisode] = field(default_factory=dict)
-    _guard: threading.Lock = field(default_factory=threading.Lock)
-
-    def get(self, edh_name: str) -> TeachEpisode | None:
-        with self._guard:
-            return self._by_name.get(edh_name)
-
-    def put(self, episode: TeachEpisode) -> TeachEpisode | None:
-        """Record the instance's episode; returns the one it replaces (the same name started again)."""
-        with self._guard:
-            previous = self._by_name.pop(episode.edh_name, None)
-            self._by_name[episode.edh_name] = episode
-            return previous
-
-    def forget(self, edh_name: str) -> None:
-        with self._guard:
-            self._by_name.pop(edh_name, None)
-
-    def names(self) -> list[str]:
-        """Names in the order their instances were started, oldest first."""
-        with self._guard:
-            return list(self._by_name)
-
-    def __len__(self) -> int:
-        with self._guard:
-            return len(self._by_name)
+    @classmethod
+    def from_notes(cls, notes: Mapping[str, Any]) -> TeachEpisode:
+        pending, answer = notes.get("pending"), notes.get("last_answer")
+        return cls(
+            edh_name=str(notes["edh_name"]),
+            pending=SessionCreate.model_validate(pending) if pending is not None else None,
+            last_img_name=notes.get("last_img_name"),
+            last_answer=TeachAction.model_validate(answer) if answer is not None else None,
+        )
 
 
 def _edh_name(form: TeachForm, edh_instance: Mapping[str, Any] | None) -> str:
@@ -304,52 +296,50 @@ def _build(
 
 
 def _store_evicting_finished(
-    session: AgentSession, store: SessionStore, episodes: TeachEpisodes, settings: Settings
+    session: AgentSession,
+    episode: TeachEpisode,
+    store: SessionStore,
+    caller: Caller,
+    settings: Settings,
 ) -> None:
-    """Store the session; when the store is full, first drop finished TEACh sessions, oldest first (the
-    runner never deletes them: after Stop, or its 30 failed actions, it just starts the next instance)."""
+    """Store the session; when the store (or the caller's share) is full, first drop the caller's finished
+    TEACh sessions, oldest first (the runner never deletes them: after Stop, or its 30 failed actions, it
+    just starts the next instance)."""
+    notes = {TEACH_NOTES: episode.notes()}
+    cap = owner_cap(caller, settings)
     try:
-        store.create(session)
+        store.create(session, caller.owner, notes, owner_cap=cap)
         return
     except StoreFull:
         pass
-    for name in episodes.names():
-        episode = episodes.get(name)
-        if episode is None:
-            continue
-        try:
-            finished = store.get(episode.session_id).done
-        except SessionNotFound:
-            finished = True
-        if finished:
-            episodes.forget(name)
-            _delete_quietly(store, episode.session_id)
+    for name, session_id in store.names(caller.owner):
+        if store.finished(session_id):
+            store.unbind_name(caller.owner, name)
+            _delete_quietly(store, session_id, caller.owner)
     try:
-        store.create(session)
+        store.create(session, caller.owner, notes, owner_cap=cap)
     except StoreFull as error:
-        raise ApiError(
-            429,
-            TOO_MANY_SESSIONS,
-            f"{error}, none of them a finished TEACh episode; wait for idle ones to expire "
-            f"(settings JARVIS_MAX_SESSIONS={settings.max_sessions}, "
-            f"JARVIS_SESSION_TTL_S={settings.session_ttl_s})",
-        ) from error
+        raise too_many_sessions(error, settings) from error
 
 
-def _delete_quietly(store: SessionStore, session_id: str) -> None:
+def _delete_quietly(store: SessionStore, session_id: str, owner: str | None) -> None:
     try:
-        store.delete(session_id)
+        store.delete(session_id, owner)
     except SessionNotFound:
         return
 
 
 def start_edh_instance(
-    form: TeachForm, settings: Settings, store: SessionStore, ontology: Ontology, episodes: TeachEpisodes
+    form: TeachForm, settings: Settings, store: SessionStore, ontology: Ontology, caller: Caller
 ) -> TeachStarted:
-    """A new session for the instance, replacing the one an earlier start of the same name made."""
+    """A new session for the instance, replacing the one an earlier start of the same name (by the same
+    API key) made; another key's instance of the same name is another session."""
     edh_instance = form.json_object("edh_instance", required=True)
     assert edh_instance is not None
     name = _edh_name(form, edh_instance)
+    actions = edh_instance.get("driver_action_history")
+    if isinstance(actions, list):  # before any work: validating 200k actions alone takes a CPU-second
+        check_history_length(len(actions), settings, "edh_instance.driver_action_history")
     frames = form.file_list(HISTORY_FIELD)
     if frames:
         width, height = image_size(frames[0], f"{HISTORY_FIELD}[0]")
@@ -357,10 +347,11 @@ def start_edh_instance(
         width = height = TEACH_IMAGE_SIDE
     request = edh_session_request(edh_instance, _teach_camera(width, height))
     session = _build(request, frames or None, settings, ontology, session_id=uuid.uuid4().hex)
-    _store_evicting_finished(session, store, episodes, settings)
-    replaced = episodes.put(TeachEpisode(name, session.session_id, pending=None if frames else request))
-    if replaced is not None:
-        _delete_quietly(store, replaced.session_id)
+    episode = TeachEpisode(name, pending=None if frames else request)
+    _store_evicting_finished(session, episode, store, caller, settings)
+    replaced = store.bind_name(caller.owner, name, session.session_id)
+    if replaced is not None and replaced != session.session_id:
+        _delete_quietly(store, replaced, caller.owner)
     return TeachStarted(
         success=True,
         edh_name=name,
@@ -410,25 +401,17 @@ def _check_prev_action(prev: TeachPrevAction | None, session: AgentSession, name
 
 
 def _adopt_frame_size(
-    episode: TeachEpisode,
-    size: tuple[int, int],
-    settings: Settings,
-    store: SessionStore,
-    ontology: Ontology,
-    lock_timeout_s: float,
+    held: StoredSession, episode: TeachEpisode, size: tuple[int, int], settings: Settings, ontology: Ontology
 ) -> None:
     """Before the first step of a session started without history images, make its camera the frame's."""
     request = episode.pending
     if request is None or request.camera is None or (request.camera.width, request.camera.height) == size:
         return
-    with store.hold(episode.session_id, lock_timeout_s) as old:
-        if old.step > 0 or episode.pending is None:
-            return
-        resized = request.model_copy(update={"camera": _teach_camera(*size)})
-        session = _build(resized, None, settings, ontology, session_id=episode.session_id)
-        _delete_quietly(store, episode.session_id)
-        store.create(session)
-        episode.pending = resized
+    if held.session.step > 0:
+        return
+    resized = request.model_copy(update={"camera": _teach_camera(*size)})
+    held.session = _build(resized, None, settings, ontology, session_id=held.session.session_id)
+    episode.pending = resized
 
 
 def next_action(
@@ -436,13 +419,13 @@ def next_action(
     settings: Settings,
     store: SessionStore,
     ontology: Ontology,
-    episodes: TeachEpisodes,
+    caller: Caller,
 ) -> TeachAction:
     """The instance session's next action for this frame (see the module docstring for the rules)."""
     edh_instance = form.json_object("edh_instance", required=False)
     name = _edh_name(form, edh_instance)
-    episode = episodes.get(name)
-    if episode is None:
+    session_id = store.named(caller.owner, name)
+    if session_id is None:
         raise ApiError(
             404,
             EDH_INSTANCE_NOT_STARTED,
@@ -456,11 +439,16 @@ def next_action(
     img_name = form.text("img_name")
     timeout = settings.session_lock_timeout_s
     try:
-        if episode.pending is not None:
-            _adopt_frame_size(episode, image_size(img, "img"), settings, store, ontology, timeout)
-        with store.hold(episode.session_id, timeout) as session:
+        with (
+            store_errors_as_api_errors(session_id, timeout),
+            store.hold(session_id, caller.owner, timeout, write=True) as held,
+        ):
+            episode = TeachEpisode.from_notes(held.meta[TEACH_NOTES])
             if img_name is not None and img_name == episode.last_img_name and episode.last_answer is not None:
                 return episode.last_answer  # the runner retried: same frame, same answer, nothing changes
+            if episode.pending is not None:
+                _adopt_frame_size(held, episode, image_size(img, "img"), settings, ontology)
+            session = held.session
             _check_prev_action(prev, session, name)
             observation = rgb_observation(img, session.camera, ontology, "img")
             try:
@@ -474,18 +462,22 @@ def next_action(
             episode.pending = None
             episode.last_img_name = img_name
             episode.last_answer = answer
+            held.meta[TEACH_NOTES] = episode.notes()
             return answer
-    except SessionBusy as error:
-        raise ApiError(
-            409,
-            STEP_IN_PROGRESS,
-            f"EDH instance {name!r} is busy with another request for over {timeout} s; retry later",
-        ) from error
-    except SessionNotFound as error:
-        episodes.forget(name)
-        raise ApiError(
-            404,
-            EDH_INSTANCE_NOT_STARTED,
-            f"the session of EDH instance {name!r} expired after {settings.session_ttl_s} s idle; start the "
-            "instance again",
-        ) from error
+    except ApiError as error:
+        if error.code == SESSION_NOT_FOUND:
+            store.unbind_name(caller.owner, name)
+            raise ApiError(
+                404,
+                EDH_INSTANCE_NOT_STARTED,
+                f"the session of EDH instance {name!r} expired after {settings.session_ttl_s} s idle; start "
+                "the instance again",
+            ) from error
+        if error.code == STEP_IN_PROGRESS:
+            raise ApiError(
+                409,
+                STEP_IN_PROGRESS,
+                f"EDH instance {name!r} is busy with another request for over {timeout} s; retry later",
+                headers=error.headers,
+            ) from error
+        raise

@@ -14,6 +14,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import TracebackType
@@ -59,11 +60,13 @@ class FrameEncoding:
 class ServiceError(Exception):
     """A non-2xx answer of the service, with its ``{"error", "detail"}`` body."""
 
-    def __init__(self, status: int, error: str, detail: str) -> None:
-        super().__init__(status, error, detail)  # all three, so it pickles across eval worker processes
+    def __init__(self, status: int, error: str, detail: str, retry_after_s: float | None = None) -> None:
+        # every argument, so it pickles across eval worker processes
+        super().__init__(status, error, detail, retry_after_s)
         self.status = status
         self.error = error
         self.detail = detail
+        self.retry_after_s = retry_after_s  # the answer's Retry-After, seconds
 
     def __str__(self) -> str:
         return f"HTTP {self.status} {self.error}: {self.detail}"
@@ -142,20 +145,51 @@ def _file_name(field: str, encoding: FrameEncoding) -> str:
 
 
 def _error_of(response: httpx.Response) -> ServiceError:
+    retry_after = response.headers.get("Retry-After")
+    wait = float(retry_after) if retry_after is not None and retry_after.isdigit() else None
     try:
         body = response.json()
-        return ServiceError(response.status_code, str(body["error"]), str(body["detail"]))
+        return ServiceError(response.status_code, str(body["error"]), str(body["detail"]), wait)
     except (ValueError, KeyError, TypeError):
-        return ServiceError(response.status_code, "unexpected_response", response.text[:500])
+        return ServiceError(response.status_code, "unexpected_response", response.text[:500], wait)
+
+
+RETRYABLE_CODES: frozenset[str] = frozenset({"step_in_progress", "lease_lost", "overloaded", "not_ready"})
+"""Refusals that change nothing and pass: the session is busy, a worker's lease lapsed, the service is loaded
+or starting. A step with its index can be sent again after them (the service answers a repeated index with
+the answer it already gave)."""
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    """How long an idempotent request (a step with its index) keeps being sent again when the connection
+    fails (a worker process died: the service's supervisor starts another, and the session continues from
+    the shared store) or the answer is a passing refusal (``RETRYABLE_CODES``)."""
+
+    give_up_after_s: float = 60.0  # a worker killed mid-step holds its session's lease for up to 15 s
+    first_wait_s: float = 0.05
+    longest_wait_s: float = 2.0
 
 
 class AgentClient:
     """One connection pool to a running service; use as a context manager or call ``close()``."""
 
-    def __init__(self, base_url: str, timeout: float = 30.0, encoding: FrameEncoding | None = None) -> None:
+    def __init__(
+        self,
+        base_url: str,
+        timeout: float = 30.0,
+        encoding: FrameEncoding | None = None,
+        *,
+        http: httpx.Client | None = None,
+        retry: RetryPolicy | None = None,
+    ) -> None:
+        """``http``: a client to send through instead of a new pool (FastAPI's TestClient, or one without
+        keep-alive to spread requests over worker processes); ``retry``: None sends each request once."""
         self.base_url = base_url.rstrip("/")
         self.encoding = encoding or FrameEncoding()
-        self._http = httpx.Client(base_url=self.base_url, timeout=timeout)
+        self.retry = retry
+        self.retried = 0  # requests sent again under ``retry``
+        self._http = http or httpx.Client(base_url=self.base_url, timeout=timeout)
 
     def __enter__(self) -> AgentClient:
         return self
@@ -241,9 +275,30 @@ class AgentClient:
         if chosen.transport == "multipart":
             form = {name: _form_value(value) for name, value in fields.items()}
             files = {name: (_file_name(name, chosen), data) for name, data in parts.items()}
-            return dict(self._send("POST", path, data=form, files=files).json())
+            return dict(self._idempotent(step_index, "POST", path, data=form, files=files).json())
         body = {**fields, **{name: base64.b64encode(data).decode("ascii") for name, data in parts.items()}}
-        return dict(self._send("POST", path, json=body).json())
+        return dict(self._idempotent(step_index, "POST", path, json=body).json())
+
+    def _idempotent(self, step_index: int | None, method: str, path: str, **kwargs: Any) -> httpx.Response:
+        """Send a step; with its index and a retry policy, send it again after a failed connection or a
+        passing refusal until it is answered or the policy gives up."""
+        if self.retry is None or step_index is None:
+            return self._send(method, path, **kwargs)
+        deadline = time.monotonic() + self.retry.give_up_after_s
+        wait = self.retry.first_wait_s
+        while True:
+            try:
+                return self._send(method, path, **kwargs)
+            except httpx.TransportError:
+                if time.monotonic() + wait > deadline:
+                    raise
+            except ServiceError as error:
+                if error.error not in RETRYABLE_CODES or time.monotonic() + wait > deadline:
+                    raise
+                wait = max(wait, min(error.retry_after_s or 0.0, self.retry.longest_wait_s))
+            self.retried += 1
+            time.sleep(wait)
+            wait = min(wait * 2, self.retry.longest_wait_s)
 
 
 # ---- TEACh's RemoteModel -------------------------------------------------------------------------------

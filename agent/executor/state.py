@@ -6,7 +6,7 @@ for its false-detection rule, how often the agent looked around a mapped target 
 We add what a kitchen needs: where the agent last acted on each type (so "Close Fridge" closes the fridge
 it opened and "Pickup Mug" takes the mug it washed), the progress on the current subgoal (failed clicks,
 given-up standing positions, the search for an unmapped target) and the failure counts that bound an
-episode. Everything is plain data so the session pickles compactly.
+episode. Everything is plain data so the session snapshots compactly (``agent.snapshot``).
 """
 
 from __future__ import annotations

@@ -168,7 +168,10 @@ class SemanticMap:
         cam_i, cam_j = (math.floor(v / cfg.cell_m) for v in (pose.x, pose.z))
         lo_i, hi_i = min(cam_i, int(gi.min(initial=cam_i))), max(cam_i, int(gi.max(initial=cam_i)))
         lo_j, hi_j = min(cam_j, int(gj.min(initial=cam_j))), max(cam_j, int(gj.max(initial=cam_j)))
-        grew = self._ensure_covers(lo_i, hi_i, lo_j, hi_j)
+        # The camera's cell first: when the view needs more than max_extent_m the map then gives up points
+        # of the view, never the cell the agent stands on (the same growth as one call otherwise).
+        grew_to_camera = self._ensure_covers(cam_i, cam_i, cam_j, cam_j)
+        grew = self._ensure_covers(lo_i, hi_i, lo_j, hi_j) or grew_to_camera
         X, Z = self.shape
         li, lj = gi - self._offset[0], gj - self._offset[1]
         i0, i1 = max(lo_i - self._offset[0], 0), min(hi_i - self._offset[0] + 1, X)
@@ -367,6 +370,39 @@ class SemanticMap:
         cell, margin = self.config.cell_m, self.config.cells(margin_m)
         i, j = math.floor(x / cell), math.floor(z / cell)
         return self._ensure_covers(i - margin, i + margin, j - margin, j + margin)
+
+    def can_hold(self, x: float, z: float) -> bool:
+        """Whether the world point (x, z) lies in the map or where it can still grow to.
+
+        The map never drops what it has and a side is at most ``max_extent_m``, so along each axis a cell
+        fits while the span from the far edge of the current content to it stays within that limit
+        (``_grown_range``). A pose beyond that cannot be mapped, planned from or clicked from: the step
+        must be refused before anything changes (the navigator would fail after the map had grown).
+        """
+        if not (math.isfinite(x) and math.isfinite(z)):
+            return False
+        limit = self.config.cells(self.config.max_extent_m)
+        cell = self.config.cell_m
+        for value, offset, size in zip((x, z), self._offset, self.shape, strict=True):
+            index = math.floor(value / cell)
+            if not offset + size - limit <= index < offset + limit:
+                return False
+        return True
+
+    def check_pose(self, pose: Pose) -> None:
+        """ValueError naming the pose and the reachable extent when ``can_hold`` refuses it."""
+        if self.can_hold(pose.x, pose.z):
+            return
+        frame = self.frame
+        X, Z = self.shape
+        span = self.config.max_extent_m
+        x_lo, z_lo = frame.origin_x + X * frame.cell_m - span, frame.origin_z + Z * frame.cell_m - span
+        x_hi, z_hi = frame.origin_x + span, frame.origin_z + span
+        raise ValueError(
+            f"({pose.x:.3f}, {pose.z:.3f}) lies outside what this session's map can hold: x in "
+            f"[{x_lo:.2f}, {x_hi:.2f}), z in [{z_lo:.2f}, {z_hi:.2f}) metres (a map spans at most "
+            f"{span:g} m a side and keeps what it has seen)"
+        )
 
     def _ensure_covers(self, lo_i: int, hi_i: int, lo_j: int, hi_j: int) -> bool:
         """Grow in ``grow_step_m`` steps so global cells [lo, hi] fit, up to ``max_extent_m`` a side.

@@ -38,6 +38,14 @@ ImageInput = str | bytes | np.ndarray
 """Base64 text, raw file bytes, or an already decoded array."""
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_JPEG_SOI = b"\xff\xd8"
+_JPEG_SOF_MARKERS = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
+"""Start-of-frame markers (baseline, progressive, lossless...); C4, C8 and CC are other segments."""
+_JPEG_STANDALONE_MARKERS = frozenset({0x01, *range(0xD0, 0xD8)})
+"""Markers without a length field (TEM, RST0-7)."""
+MAX_INSTANCE_ID = (1 << 32) - 1
+"""Largest instance id a legend may name: instance images are 8-, 16- or 24-bit PNGs (or 32-bit arrays), so
+a larger id can name no pixel, and ids are kept in fixed-width integers (a 67-bit id overflowed)."""
 _NPY_MAGIC = b"\x93NUMPY"
 _DATA_URL_MARK = ";base64,"
 _DENSE_ID_LIMIT = 1 << 16
@@ -68,6 +76,40 @@ def _png_size(data: bytes) -> tuple[int, int] | None:
     return width, height
 
 
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's start-of-frame segment, walking the marker segments before it (ITU-T
+    T.81 B.1.1); None when the file is no JPEG or ends first. A decoder allocates what this header says
+    before reading a pixel: a 4 MB JPEG declaring 16000x16000 raised memory by a gigabyte."""
+    if not data.startswith(_JPEG_SOI):
+        return None
+    position, end = 2, len(data)
+    while position + 4 <= end:
+        if data[position] != 0xFF:
+            return None  # a marker must start here
+        marker = data[position + 1]
+        if marker == 0xFF:  # fill byte before a marker
+            position += 1
+            continue
+        if marker in _JPEG_STANDALONE_MARKERS:
+            position += 2
+            continue
+        if marker in (0xD9, 0xDA):  # end of image or start of scan before any frame header
+            return None
+        if marker in _JPEG_SOF_MARKERS:
+            if position + 9 > end:
+                return None
+            height, width = struct.unpack(">HH", data[position + 5 : position + 9])  # after length, precision
+            return width, height
+        (length,) = struct.unpack(">H", data[position + 2 : position + 4])
+        position += 2 + length
+    return None
+
+
+def image_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) of a PNG or JPEG file from its header alone (nothing decoded), else None."""
+    return _png_size(data) or _jpeg_size(data)
+
+
 def _check_size(array_or_size: np.ndarray | tuple[int, int], camera: Camera, field: str) -> None:
     if isinstance(array_or_size, np.ndarray):
         height, width = array_or_size.shape[:2]
@@ -80,10 +122,14 @@ def _check_size(array_or_size: np.ndarray | tuple[int, int], camera: Camera, fie
 
 
 def decode_image(data: bytes, field: str, camera: Camera | None = None) -> np.ndarray:
-    """An image file's pixels as cv2 reads them (BGR order, depth unchanged); checks the size first."""
-    png_size = _png_size(data)
-    if camera is not None and png_size is not None:
-        _check_size(png_size, camera, field)
+    """An image file's pixels as cv2 reads them (BGR order, depth unchanged). Only PNG and JPEG are read
+    (cv2 would decode TIFF, WebP and others too), and their header's size is checked against the camera
+    before decoding, so a small file declaring a huge image costs nothing."""
+    size = image_size(data)
+    if size is None:
+        raise ObservationError(field, "is not a PNG or JPEG image")
+    if camera is not None:
+        _check_size(size, camera, field)
     image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise ObservationError(field, "is not a PNG or JPEG image")
@@ -185,8 +231,12 @@ def decode_legend(legend: Mapping[int, str] | Mapping[str, str], ontology: Ontol
             instance_id = int(key)
         except (TypeError, ValueError) as exc:
             raise ObservationError(field, f"key {key!r} is not an integer instance id") from exc
-        if instance_id < 0:
-            raise ObservationError(field, f"instance id {instance_id} is negative")
+        if not 0 <= instance_id <= MAX_INSTANCE_ID:
+            bits = instance_id.bit_length()
+            shown = str(instance_id) if bits <= 64 else f"of {bits} bits"
+            raise ObservationError(
+                field, f"instance id {shown} is outside 0..{MAX_INSTANCE_ID} (ids of an 8-32 bit image)"
+            )
         if not isinstance(name, str):
             raise ObservationError(field, f"id {instance_id} maps to {name!r}, not an object type name")
         try:

@@ -13,10 +13,10 @@ neighbour, so its pixels name nothing.
 
 Both networks run at their own small input side (as shipped: 96 pixels for depth, 192 for segmentation;
 the frame is area-downscaled) and their outputs are resized back to the camera's size by nearest neighbour,
-to fit a step into the CPU budget (measured by ``bench/perception_speed.py`` with one torch thread:
-``JARVIS_TORCH_THREADS=1``). For the same reason they compute in bfloat16 where the CPU has it natively
-(``LearnedConfig.precision``; float32 elsewhere): a third off the step, with the same mIoU and depth error
-to three decimals. They were trained on 90° frames (TEACh's camera): depth
+to fit a step into the CPU budget (measured by ``bench/perception_speed.py`` with one torch thread, the
+service's default ``JARVIS_THREADS_PER_WORKER=1``). For the same reason they compute in bfloat16 where the
+CPU has it natively (``LearnedConfig.precision``; float32 elsewhere): a third off the step, with the same
+mIoU and depth error to three decimals. They were trained on 90° frames (TEACh's camera): depth
 from a camera with another field of view is scaled wrongly, so sessions with ALFRED's 60° camera should
 prefer oracle perception or networks trained on their own frames (``models/perception/dataset.py``).
 """
@@ -24,6 +24,7 @@ prefer oracle perception or networks trained on their own frames (``models/perce
 from __future__ import annotations
 
 import functools
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -87,10 +88,19 @@ class LearnedModels:
     segmentation: PerceptionNet
 
 
-@functools.lru_cache(maxsize=4)
+_LOADING = threading.Lock()
+
+
 def load_learned_models(depth_dir: Path, segmentation_dir: Path) -> LearnedModels:
     """Load (once per pair of directories) the depth and segmentation checkpoints; FileNotFoundError says
-    which directory lacks what."""
+    which directory lacks what. Sessions created while the service preloads them wait for that load
+    instead of loading a second copy."""
+    with _LOADING:
+        return _loaded_models(Path(depth_dir), Path(segmentation_dir))
+
+
+@functools.lru_cache(maxsize=4)
+def _loaded_models(depth_dir: Path, segmentation_dir: Path) -> LearnedModels:
     from models.perception.network import load_checkpoint  # torch loads here, not at import
 
     return LearnedModels(

@@ -22,6 +22,7 @@ SMALL_LIMITS: dict[str, Any] = {
     "max_subgoals": 20,
     "session_lock_timeout_s": 0.2,
     "log_level": "warning",
+    "preload_models": False,  # models load on first use: most app tests need none (test_readiness.py)
 }
 
 

@@ -363,7 +363,7 @@ def populated(client: TestClient) -> tuple[TestClient, dict[str, str]]:
 
 def _snapshot(client: TestClient, ids: dict[str, str]) -> dict[str, bytes]:
     store = client.app.state.store  # type: ignore[attr-defined]
-    snapshot = {"ids": json.dumps(store.ids()).encode()}
+    snapshot = {"ids": json.dumps(store.ids(None)).encode()}
     for session_id in (ids["live"], ids["other"], ids["full"]):
         snapshot[session_id] = client.get(f"/v1/sessions/{session_id}").content
     return snapshot

@@ -55,7 +55,7 @@ def test_the_networks_use_the_configured_threads_in_the_threads_requests_run_in(
     before = torch.get_num_threads()
     try:
         for threads in (1, 3):
-            with TestClient(create_app(Settings(log_level="warning", torch_threads=threads))):
+            with TestClient(create_app(Settings(log_level="warning", threads_per_worker=threads))):
                 assert in_a_new_thread() == threads
     finally:
         torch.set_num_threads(before)

@@ -24,6 +24,7 @@ def test_creation_at_the_cap_answers_429_and_a_delete_frees_a_slot(
     assert refused.status_code == 429
     assert refused.json()["error"] == "too_many_sessions"
     assert "2 sessions" in refused.json()["detail"]
+    assert 1 <= int(refused.headers["Retry-After"]) <= 60  # the oldest idle session's expiry
     assert accepted.status_code == 201
 
 

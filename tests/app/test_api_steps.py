@@ -206,7 +206,7 @@ def test_step_while_another_request_holds_the_session_answers_409(client: TestCl
     session_id = _session(client)
     store = client.app.state.store  # type: ignore[attr-defined]
 
-    with store.hold(session_id, timeout_s=1.0):
+    with store.hold(session_id, None, 1.0, write=False):
         raced = _step(client, session_id, oracle_observation())
     after = _step(client, session_id, oracle_observation())
 

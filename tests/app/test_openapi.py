@@ -28,6 +28,7 @@ def test_every_route_documents_its_errors_with_the_error_body(client: TestClient
     paths = client.get("/openapi.json").json()["paths"]
     expected = {
         ("/v1/sessions", "post"),
+        ("/v1/sessions", "get"),
         ("/v1/sessions/{session_id}", "get"),
         ("/v1/sessions/{session_id}", "delete"),
         ("/v1/sessions/{session_id}/utterances", "post"),
@@ -36,6 +37,7 @@ def test_every_route_documents_its_errors_with_the_error_body(client: TestClient
         ("/v1/sessions/{session_id}/map.png", "get"),
         ("/healthz", "get"),
         ("/readyz", "get"),
+        ("/metrics", "get"),
         ("/start_new_edh_instance", "post"),
         ("/get_next_action", "post"),
         ("/test", "get"),

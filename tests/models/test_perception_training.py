@@ -364,7 +364,9 @@ def test_a_service_can_run_learned_perception_on_networks_a_user_trained(tiny_mo
     with TestClient(create_app(settings)) as client:
         created = client.post("/v1/sessions", json=body)
         assert created.status_code == 201, created.text
-        session = client.app.state.store.get(created.json()["session_id"])  # type: ignore[attr-defined]
+        store = client.app.state.store  # type: ignore[attr-defined]
+        with store.hold(created.json()["session_id"], None, 1.0, write=False) as held:
+            session = held.session
     restored = AgentSession.from_bytes(session.to_bytes())
     assert restored.networks == networks
     assert restored.perception_backend.models.depth.config.unet.widths == TINY  # type: ignore[attr-defined]

@@ -9,13 +9,14 @@ from typing import Annotated
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import OntologyDep, SessionDep, SettingsDep, StoreDep, session_not_found
+from app.api.deps import CallerDep, OntologyDep, SessionDep, SettingsDep, StoreDep
 from app.api.responses import error_responses
-from app.errors import TOO_MANY_SESSIONS, ApiError
 from app.limits import check_dialogue
-from app.schemas import SessionCreate, SessionPublic, UtteranceCreate, UtteranceResult
+from app.ownership import owner_cap, too_many_sessions
+from app.schemas import SessionCreate, SessionList, SessionPublic, UtteranceCreate, UtteranceResult
 from app.session_builder import build_session, planning_errors_as_api_errors
 from app.store import SessionNotFound, StoreFull
+from app.store_errors import session_not_found
 from app.views import session_public
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
@@ -27,23 +28,22 @@ _LOG = logging.getLogger("app.sessions")
     "",
     status_code=201,
     response_model=SessionPublic,
-    responses=error_responses(400, 413, 422, 429, 503),
+    responses=error_responses(400, 401, 413, 422, 429, 503),
     summary="Create a session and its first repaired plan",
 )
 def create_session(
-    body: SessionCreate, settings: SettingsDep, store: StoreDep, ontology: OntologyDep, response: Response
+    body: SessionCreate,
+    settings: SettingsDep,
+    store: StoreDep,
+    ontology: OntologyDep,
+    caller: CallerDep,
+    response: Response,
 ) -> SessionPublic:
     session = build_session(body, settings, ontology, session_id=uuid.uuid4().hex, now=datetime.now(UTC))
     try:
-        store.create(session)
+        store.create(session, caller.owner, owner_cap=owner_cap(caller, settings))
     except StoreFull as error:
-        raise ApiError(
-            429,
-            TOO_MANY_SESSIONS,
-            f"{error}; delete finished sessions or wait for idle ones to expire "
-            f"(settings JARVIS_MAX_SESSIONS={settings.max_sessions}, "
-            f"JARVIS_SESSION_TTL_S={settings.session_ttl_s})",
-        ) from error
+        raise too_many_sessions(error, settings) from error
     response.headers["Location"] = f"/v1/sessions/{session.session_id}"
     _LOG.info(
         "session_created",
@@ -59,26 +59,36 @@ def create_session(
 
 
 @router.get(
+    "",
+    response_model=SessionList,
+    responses=error_responses(401, 429, 503),
+    summary="List the caller's live sessions, oldest first",
+)
+def list_sessions(store: StoreDep, caller: CallerDep) -> SessionList:
+    return SessionList(session_ids=store.ids(caller.owner))
+
+
+@router.get(
     "/{session_id}",
     response_model=SessionPublic,
-    responses=error_responses(404, 409, 422, 503),
+    responses=error_responses(401, 404, 409, 410, 422, 429, 503),
     summary="Read a session: configuration, dialogue, plan and progress",
 )
 def read_session(handle: SessionDep) -> SessionPublic:
-    with handle.hold() as session:
-        return session_public(session)
+    with handle.hold() as held:
+        return session_public(held.session)
 
 
 @router.delete(
     "/{session_id}",
     status_code=204,
     response_class=Response,
-    responses=error_responses(404, 422, 503),
+    responses=error_responses(401, 404, 422, 429, 503),
     summary="Delete a session and free its slot",
 )
-def delete_session(session_id: str, store: StoreDep) -> Response:
+def delete_session(session_id: str, store: StoreDep, caller: CallerDep) -> Response:
     try:
-        store.delete(session_id)
+        store.delete(session_id, caller.owner)
     except SessionNotFound as error:
         raise session_not_found(session_id) from error
     _LOG.info("session_deleted", extra={"session_id": session_id})
@@ -88,11 +98,12 @@ def delete_session(session_id: str, store: StoreDep) -> Response:
 @router.post(
     "/{session_id}/utterances",
     response_model=UtteranceResult,
-    responses=error_responses(400, 404, 409, 413, 422, 503),
+    responses=error_responses(400, 401, 404, 409, 410, 413, 422, 429, 503),
     summary="Add a dialogue turn; a commander turn may re-plan",
 )
 def add_utterance(body: UtteranceCreate, handle: SessionDep, settings: SettingsDep) -> UtteranceResult:
-    with handle.hold() as session:
+    with handle.hold(write=True) as held:
+        session = held.session
         check_dialogue([body], settings, already=len(session.dialogue))
         speaker = body.normalized_speaker()
         with planning_errors_as_api_errors("dialogue"):
@@ -118,7 +129,7 @@ def add_utterance(body: UtteranceCreate, handle: SessionDep, settings: SettingsD
             "statistics, subgoal, action and the predicate or rule that chose it, server timings.",
             "content": {TRACE_MEDIA_TYPE: {"schema": {"type": "string"}}},
         },
-        **error_responses(404, 409, 422, 503),
+        **error_responses(401, 404, 409, 410, 422, 429, 503),
     },
     summary="Read the step trace as ndjson (one line per step)",
 )
@@ -126,8 +137,8 @@ def read_trace(
     handle: SessionDep,
     since: Annotated[int | None, Query(ge=0, description="Only steps from this index on.")] = None,
 ) -> Response:
-    with handle.hold() as session:
-        lines = list(session.trace.lines(since))
+    with handle.hold() as held:
+        lines = list(held.session.trace.lines(since))
     body = "".join(f"{line}\n" for line in lines)
     return Response(content=body, media_type=TRACE_MEDIA_TYPE)
 
@@ -141,11 +152,11 @@ def read_trace(
             "object class in its colour, the agent, its planned path, the current target, and a legend.",
             "content": {"image/png": {"schema": {"type": "string", "format": "binary"}}},
         },
-        **error_responses(404, 409, 422, 503),
+        **error_responses(401, 404, 409, 410, 422, 429, 503),
     },
     summary="Draw the session's semantic map as a PNG",
 )
 def read_map(handle: SessionDep) -> Response:
-    with handle.hold() as session:
-        picture = session.map_png()
+    with handle.hold() as held:
+        picture = held.session.map_png()
     return Response(content=picture, media_type="image/png")

@@ -23,6 +23,7 @@ from agent.perception import ObservationError
 from app.api.deps import OntologyDep, SessionDep
 from app.api.responses import error_responses
 from app.errors import STEP_OUT_OF_ORDER, VALIDATION_ERROR, ApiError
+from app.metrics import MetricsDep, step_timing_ms
 from app.observation import observation_error, observation_from_request
 from app.schemas import StepRequest, StepResult
 from app.views import step_result
@@ -133,12 +134,17 @@ router = APIRouter(prefix="/v1/sessions", tags=["steps"], route_class=JsonOrForm
 @router.post(
     "/{session_id}/step",
     response_model=StepResult,
-    responses=error_responses(400, 404, 409, 413, 422, 503),
+    responses=error_responses(400, 401, 404, 409, 410, 413, 422, 429, 503),
     summary="Send one observation (JSON or multipart) and receive the next action",
     openapi_extra=_MULTIPART_DOC,
 )
 def step(
-    body: StepRequest, request: Request, response: Response, handle: SessionDep, ontology: OntologyDep
+    body: StepRequest,
+    request: Request,
+    response: Response,
+    handle: SessionDep,
+    ontology: OntologyDep,
+    metrics: MetricsDep,
 ) -> StepResult:
     started = time.perf_counter()
     parts: dict[str, bytes] = getattr(request.state, "step_parts", {})
@@ -149,7 +155,8 @@ def step(
             VALIDATION_ERROR,
             f"{', '.join(sorted(unknown))}: only {', '.join(IMAGE_FIELDS)} may be file parts",
         )
-    with handle.hold() as session:
+    with handle.hold(write=True) as held:
+        session = held.session
         last = session.last_decision
         if body.step is not None and last is not None and body.step == last.step:
             answer = step_result(last)  # a retry of the last answered step: same answer, nothing changes
@@ -162,11 +169,14 @@ def step(
                     f"step {body.step} was sent but session {session.session_id!r} expects step "
                     f"{session.step}{again}",
                 )
+            decoding = time.perf_counter()
             observation = observation_from_request(body, session.camera, session.perception, ontology, parts)
+            decoded = time.perf_counter()
             try:
                 decision = session.step_once(observation)
             except ObservationError as error:
                 raise observation_error(error) from error
             answer = step_result(decision)
+            metrics.observe_step(decoded - decoding, step_timing_ms(session, decision.step))
     response.headers[PROCESS_TIME_HEADER] = f"{(time.perf_counter() - started) * 1e3:.3f}"
     return answer

@@ -7,7 +7,7 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from app.api.deps import OntologyDep, SettingsDep, StoreDep, TeachEpisodesDep, TeachFormDep
+from app.api.deps import CallerDep, OntologyDep, SettingsDep, StoreDep, TeachFormDep
 from app.api.responses import error_responses
 from app.schemas import TeachAction, TeachStarted, TeachStatus
 from app.teach import HISTORY_FIELD, START_EDH_PATH, next_action, start_edh_instance
@@ -61,7 +61,7 @@ _NEXT_DOC = _form_doc(
 @router.post(
     START_EDH_PATH,
     response_model=TeachStarted,
-    responses=error_responses(400, 413, 415, 422, 429, 503),
+    responses=error_responses(400, 401, 413, 415, 422, 429, 503),
     summary="TEACh: start an EDH instance (its session replays the history)",
     openapi_extra=_START_DOC,
 )
@@ -70,15 +70,15 @@ def start_new_edh_instance(
     settings: SettingsDep,
     store: StoreDep,
     ontology: OntologyDep,
-    episodes: TeachEpisodesDep,
+    caller: CallerDep,
 ) -> TeachStarted:
-    return start_edh_instance(form, settings, store, ontology, episodes)
+    return start_edh_instance(form, settings, store, ontology, caller)
 
 
 @router.post(
     "/get_next_action",
     response_model=TeachAction,
-    responses=error_responses(400, 404, 409, 413, 415, 422, 503),
+    responses=error_responses(400, 401, 404, 409, 410, 413, 415, 422, 429, 503),
     summary="TEACh: the next action for a frame, click point row first",
     openapi_extra=_NEXT_DOC,
 )
@@ -87,9 +87,9 @@ def get_next_action(
     settings: SettingsDep,
     store: StoreDep,
     ontology: OntologyDep,
-    episodes: TeachEpisodesDep,
+    caller: CallerDep,
 ) -> TeachAction:
-    return next_action(form, settings, store, ontology, episodes)
+    return next_action(form, settings, store, ontology, caller)
 
 
 @router.get(
