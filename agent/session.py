@@ -696,22 +696,34 @@ class AgentSession:
 
     @classmethod
     def from_bytes(
-        cls, data: bytes, *, ontology: Ontology | None = None, planner: Planner | None = None
+        cls,
+        data: bytes,
+        *,
+        ontology: Ontology | None = None,
+        planner: Planner | None = None,
+        planners: Callable[[str], Planner] | None = None,
+        networks: NetworkPaths | None = None,
     ) -> AgentSession:
-        """The session ``to_bytes`` wrote, with this process's ontology, planner (``planner``, else the one
-        ``make_planner`` builds by the name in the snapshot) and a perception back-end for its camera.
+        """The session ``to_bytes`` wrote, with this process's ontology, planner (``planner``, else
+        ``planners(name)`` for the name in the snapshot, else ``make_planner``'s default for it) and a
+        perception back-end for its camera, on ``networks`` when given (the loading service's configured
+        checkpoints, rather than paths read from stored bytes).
 
         Raises SnapshotError (a ValueError) for bytes that are not a snapshot of a session this build reads.
         """
         ontology = ontology or load_ontology()
-        session = loads(data, _process_wide(ontology, planner))
+        session = loads(data, _process_wide(ontology, planner, planners))
         if not isinstance(session, AgentSession):
             raise SnapshotError(f"snapshot holds a {type(session).__name__}, not a session")
+        if networks is not None:
+            session.networks = networks
         session.perception_backend = make_perception(session.perception, session.camera, session.networks)
         return session
 
 
-def _process_wide(ontology: Ontology, planner: Planner | None) -> Callable[[Name], object]:
+def _process_wide(
+    ontology: Ontology, planner: Planner | None, planners: Callable[[str], Planner] | None
+) -> Callable[[Name], object]:
     """The objects ``to_bytes`` named, from this process (``from_bytes`` builds the perception back-end
     itself, once the session's camera is known)."""
 
@@ -720,7 +732,11 @@ def _process_wide(ontology: Ontology, planner: Planner | None) -> Callable[[Name
             case ("ontology",):
                 return ontology
             case ("planner", planner_name):
-                return planner or make_planner(planner_name, ontology)
+                if planner is not None:
+                    return planner
+                return (
+                    planners(planner_name) if planners is not None else make_planner(planner_name, ontology)
+                )
             case ("perception",):
                 return None
             case ("classes",):

@@ -13,9 +13,10 @@ from __future__ import annotations
 import json
 import logging
 
+import redis
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from app.errors import NOT_READY, RATE_LIMITED, UNAUTHORIZED
+from app.errors import NOT_READY, RATE_LIMITED, STORE_UNAVAILABLE, UNAUTHORIZED
 from app.keys import KeyRing, presented_key
 from app.ownership import Caller
 from app.rate_limit import RateLimiter, retry_after_header
@@ -69,7 +70,19 @@ class KeyCheck:
                 return
             rate = key.rate_per_s or self.settings.rate_per_key_per_s
             burst = key.burst or self.settings.rate_burst_per_key
-            wait_s = limiter.take(key.name, rate, burst)
+            try:
+                wait_s = limiter.take(key.name, rate, burst)
+            except redis.RedisError as error:
+                _LOG.warning("store_unavailable", extra={"error": f"{type(error).__name__}: {error}"})
+                await _refuse(
+                    send,
+                    503,
+                    STORE_UNAVAILABLE,
+                    f"the rate limiter's store did not answer ({type(error).__name__}); send the request "
+                    "again shortly",
+                    {"Retry-After": "1"},
+                )
+                return
             if wait_s > 0:
                 await _refuse(
                     send,

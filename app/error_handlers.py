@@ -6,6 +6,7 @@ import logging
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import redis
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
@@ -19,6 +20,7 @@ from app.errors import (
     MALFORMED_JSON,
     METHOD_NOT_ALLOWED,
     NOT_FOUND,
+    STORE_UNAVAILABLE,
     VALIDATION_ERROR,
     ApiError,
 )
@@ -155,9 +157,22 @@ class UnhandledErrors:
             await _internal_error(error)(scope, receive, send)
 
 
+async def _store_unavailable(_: Request, error: Exception) -> JSONResponse:
+    """Redis did not answer (down, restarting, unreachable): the request can be sent again. A step that was
+    stored before the connection failed is answered from the store when its index is sent again."""
+    _LOG.warning("store_unavailable", extra={"error": f"{type(error).__name__}: {error}"})
+    return error_response(
+        503,
+        STORE_UNAVAILABLE,
+        f"the session store did not answer ({type(error).__name__}); send the request again shortly",
+        headers={"Retry-After": "1"},
+    )
+
+
 def install_error_handlers(app: FastAPI) -> None:
     """Register the handlers that shape every error body."""
     app.add_exception_handler(ApiError, _api_error)
+    app.add_exception_handler(redis.RedisError, _store_unavailable)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(Exception, _unexpected_error)  # errors raised outside UnhandledErrors

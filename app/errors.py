@@ -26,6 +26,7 @@ STEP_IN_PROGRESS = "step_in_progress"
 STEP_OUT_OF_ORDER = "step_out_of_order"
 LEASE_LOST = "lease_lost"
 SESSION_UNREADABLE = "session_unreadable"
+STORE_UNAVAILABLE = "store_unavailable"
 
 # Keys and quotas.
 UNAUTHORIZED = "unauthorized"

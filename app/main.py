@@ -13,9 +13,12 @@ import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 
+import anyio.to_thread
 import cv2
+import redis
 from fastapi import Depends, FastAPI
 
+from agent.planning import make_planner
 from app.access import KeyCheck
 from app.api.routes import health, metrics, sessions, steps, teach
 from app.body_limit import BodySizeLimit
@@ -28,6 +31,7 @@ from app.preload import ModelPreload
 from app.rate_limit import InMemoryRateLimiter, RateLimiter, RedisRateLimiter
 from app.redis_store import RedisSessionStore, SnapshotObserver
 from app.request_log import RequestLog
+from app.session_builder import network_paths, planner_config
 from app.settings import Settings
 from app.store import InMemorySessionStore, SessionStore
 from app.teach import START_EDH_PATH
@@ -51,6 +55,7 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         limit_threads(settings.threads_per_worker)
+        anyio.to_thread.current_default_thread_limiter().total_tokens = settings.concurrent_requests
         app.state.ontology = load_ontology()
         app.state.keys = KeyRing.configured(settings.api_keys, settings.api_keys_file)
         app.state.store, app.state.rate_limiter = build_store(
@@ -65,7 +70,10 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
             "service_ready", extra={"version": app.version, "object_types": len(app.state.ontology.types)}
         )
         yield
-        _LOG.info("service_stopping", extra={"sessions": len(app.state.store)})
+        try:
+            _LOG.info("service_stopping", extra={"sessions": len(app.state.store)})
+        except redis.RedisError:  # the store went away first: stop all the same
+            _LOG.info("service_stopping", extra={"sessions": None})
         app.state.store.close()
         app.state.rate_limiter.close()
         app.state.store = None
@@ -121,6 +129,8 @@ def build_store(
         lease_s=settings.session_lease_s,
         ontology=ontology,
         prefix=settings.store_prefix,
+        planners=lambda name: make_planner(name, ontology, planner_config(settings)),
+        networks=network_paths(settings),
         on_snapshot=on_snapshot,
     )
     return redis_store, RedisRateLimiter(settings.store, prefix=settings.store_prefix)

@@ -49,8 +49,7 @@ class ModelPreload:
         in which a learned session could race the load is short) and the language planner."""
 
         def planner() -> object:
-            from agent.model_planner import load_generator
-            from models.planner import DEFAULT_CHECKPOINT_DIR
+            from agent.model_planner import DEFAULT_CHECKPOINT_DIR, load_generator
 
             return load_generator(settings.planner_checkpoint or DEFAULT_CHECKPOINT_DIR)
 

@@ -29,6 +29,8 @@ from typing import Any, Literal
 import orjson
 import redis
 
+from agent.perception import NetworkPaths
+from agent.planning import Planner
 from agent.session import AgentSession
 from app.store import SessionBusy, SessionNotFound, StoredSession, StoreFull
 from symbolic.ontology import Ontology
@@ -195,9 +197,13 @@ class RedisSessionStore:
         lease_s: float,
         ontology: Ontology,
         prefix: str = "jarvis",
+        planners: Callable[[str], Planner] | None = None,
+        networks: NetworkPaths | None = None,
         on_snapshot: SnapshotObserver | None = None,
         cache_size: int | None = None,
     ) -> None:
+        """``planners`` (name -> planner) and ``networks`` are this service's configured ones: a session
+        loaded here plans and perceives with them, not with whatever a stored snapshot names."""
         if max_sessions < 1:
             raise ValueError(f"max_sessions must be at least 1, got {max_sessions}")
         if ttl_s <= 0 or lease_s <= 0:
@@ -207,6 +213,8 @@ class RedisSessionStore:
         self.lease_s = lease_s
         self.prefix = prefix
         self._ontology = ontology
+        self._planners = planners
+        self._networks = networks
         self._on_snapshot = on_snapshot
         self._redis = redis.Redis.from_url(url, socket_timeout=10.0, health_check_interval=30)
         self._redis.ping()  # fail at start-up, naming the URL, not on the first request
@@ -246,7 +254,9 @@ class RedisSessionStore:
 
     def _decode(self, snapshot: bytes, meta: bytes, owner: str | None) -> StoredSession:
         started = time.perf_counter()
-        session = AgentSession.from_bytes(snapshot, ontology=self._ontology)
+        session = AgentSession.from_bytes(
+            snapshot, ontology=self._ontology, planners=self._planners, networks=self._networks
+        )
         if self._on_snapshot is not None:
             self._on_snapshot("load", time.perf_counter() - started, len(snapshot))
         return StoredSession(session, owner, orjson.loads(meta))
@@ -301,13 +311,14 @@ class RedisSessionStore:
         leased = True
         try:
             stored, version = self._current(session_id, owner)
+            stored.changed = True
             try:
                 yield stored
             except BaseException:
                 self._forget(session_id)  # the copy may be half-changed; Redis still holds the truth
                 raise
             args: list[bytes | str | int]
-            if write:
+            if write and stored.changed:
                 snapshot, meta_json = self._encode(stored)
                 args = [token, session_id, self.ttl_ms, 1, snapshot, meta_json, int(stored.session.done)]
             else:
@@ -380,6 +391,9 @@ class RedisSessionStore:
             return []
         ids = self._redis.hmget(names, ordered)
         return [(name, _text(sid)) for name, sid in zip(ordered, ids, strict=True) if sid is not None]
+
+    def check(self) -> None:
+        self._redis.ping()
 
     def close(self) -> None:
         self._leases.stop()

@@ -65,6 +65,11 @@ def planning_errors_as_api_errors(field: str) -> Iterator[None]:
         raise ApiError(413, TOO_MANY_SUBGOALS, f"{field}: {error} (setting JARVIS_MAX_SUBGOALS)") from error
 
 
+def planner_config(settings: Settings) -> PlannerConfig:
+    """The planners' configuration from the settings (the checkpoint a model planner loads, plan length)."""
+    return PlannerConfig(max_subgoals=settings.max_subgoals, checkpoint=settings.planner_checkpoint)
+
+
 def network_paths(settings: Settings) -> NetworkPaths:
     """The learned back-end's checkpoints: the settings' when given, else the shipped ones."""
     shipped = NetworkPaths()
@@ -234,8 +239,7 @@ def build_session(
     camera = Camera(**camera_spec.model_dump())
     planner_name = body.chosen_planner()
     try:
-        config = PlannerConfig(max_subgoals=settings.max_subgoals, checkpoint=settings.planner_checkpoint)
-        planner = make_planner(planner_name, ontology, config)
+        planner = make_planner(planner_name, ontology, planner_config(settings))
     except UnknownPlanner as error:
         why = error.why or f"planner {planner_name!r} is not available in this build"
         raise ApiError(

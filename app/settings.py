@@ -137,6 +137,16 @@ class Settings(BaseSettings):
         description="Worker processes `python -m app` starts behind its port. None: one per core with a "
         "Redis store, 1 with the in-memory store (which cannot be shared: more than one is refused).",
     )
+    requests_per_worker: int | None = Field(
+        default=None,
+        ge=1,
+        description="Requests one worker process runs at once (its thread pool). None: 1 with a Redis store, "
+        "2 with the in-memory store. Measured on 2 cores, 32 sessions (bench/load_fault.py): one worker "
+        "answered 47.6 steps/s with 1 at a time (17 ms per step on the server), 65.5 with 2 (its second "
+        "thread fills the first's waits outside the GIL; 25 ms) and 39.9 with FastAPI's 40 (threads "
+        "thrashing over the GIL; 664 ms); two workers 91.0 with 1 each (18 ms) and 94.8 with 2 (31 ms). "
+        "With one worker per core a second thread buys little and costs latency; alone it buys a third.",
+    )
     session_lease_s: float = Field(
         default=6.0,
         gt=0,
@@ -178,3 +188,10 @@ class Settings(BaseSettings):
     @property
     def uses_redis(self) -> bool:
         return self.store != "memory"
+
+    @property
+    def concurrent_requests(self) -> int:
+        """The worker's thread-pool size ``requests_per_worker`` means (its description says why)."""
+        if self.requests_per_worker is not None:
+            return self.requests_per_worker
+        return 1 if self.uses_redis else 2

@@ -58,6 +58,9 @@ class StoredSession:
     session: AgentSession
     owner: str | None
     meta: dict[str, Any] = field(default_factory=dict)
+    changed: bool = field(default=True, compare=False)
+    """Under ``hold(write=True)``: False when the block changed nothing (a retried step answered again), so
+    a durable store skips writing the same snapshot again."""
 
 
 class SessionStore(Protocol):
@@ -108,6 +111,10 @@ class SessionStore(Protocol):
 
     def names(self, owner: str | None) -> list[tuple[str, str]]:
         """(name, session id) of the owner's named sessions, oldest first."""
+        ...
+
+    def check(self) -> None:
+        """Raise if the store cannot serve now (its server does not answer); readiness asks this."""
         ...
 
     def close(self) -> None:
@@ -171,6 +178,7 @@ class InMemorySessionStore:
             entry.last_used = self._clock()
         if not entry.lock.acquire(timeout=timeout_s):
             raise SessionBusy(session_id, timeout_s)
+        entry.stored.changed = True
         try:
             yield entry.stored
         finally:
@@ -214,6 +222,9 @@ class InMemorySessionStore:
     def names(self, owner: str | None) -> list[tuple[str, str]]:
         with self._guard:
             return [(name, sid) for (who, name), sid in self._names.items() if who == owner]
+
+    def check(self) -> None:
+        return  # this process's memory is always there
 
     def close(self) -> None:
         with self._guard:

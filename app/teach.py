@@ -445,6 +445,7 @@ def next_action(
         ):
             episode = TeachEpisode.from_notes(held.meta[TEACH_NOTES])
             if img_name is not None and img_name == episode.last_img_name and episode.last_answer is not None:
+                held.changed = False
                 return episode.last_answer  # the runner retried: same frame, same answer, nothing changes
             if episode.pending is not None:
                 _adopt_frame_size(held, episode, image_size(img, "img"), settings, ontology)

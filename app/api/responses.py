@@ -20,7 +20,8 @@ _MEANING = {
     429: "The store or the key's share is full (too_many_sessions), or the key's request rate is exceeded "
     "(rate_limited); Retry-After says when to try again.",
     501: "Valid request for a part that is not built yet (error not_implemented).",
-    503: "The service is starting (error not_ready), or overloaded (error overloaded; see Retry-After).",
+    503: "The service is starting (not_ready), overloaded (overloaded), or its session store does not "
+    "answer (store_unavailable); see Retry-After.",
 }
 
 

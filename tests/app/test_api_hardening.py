@@ -12,7 +12,6 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-import anyio.to_thread
 import numpy as np
 import pytest
 from app_support import SMALL_CAMERA, oracle_observation
@@ -219,13 +218,9 @@ def test_the_default_history_frame_limit_is_a_real_edh_instance_s() -> None:
 # ---- 7. requests that queued past their deadline ------------------------------------------------------
 
 
-async def _one_worker_thread() -> None:
-    anyio.to_thread.current_default_thread_limiter().total_tokens = 1
-
-
 def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() -> None:
     """One worker thread, held by a slow handler: the next request waits for it past the deadline."""
-    app = create_app(Settings(request_queue_deadline_s=0.2, log_level="warning"))
+    app = create_app(Settings(request_queue_deadline_s=0.2, requests_per_worker=1, log_level="warning"))
 
     def hold_the_worker() -> dict[str, str]:
         time.sleep(0.8)
@@ -233,8 +228,6 @@ def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() 
 
     app.add_api_route("/test-only/hold", hold_the_worker)  # this test's app only, never the shipped one
     with TestClient(app, raise_server_exceptions=False) as client:
-        assert client.portal is not None
-        client.portal.call(_one_worker_thread)
         answers: dict[str, Any] = {}
         holder = threading.Thread(target=lambda: answers.update(held=client.get("/test-only/hold")))
         holder.start()

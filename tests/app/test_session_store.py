@@ -5,18 +5,24 @@ nothing."""
 
 from __future__ import annotations
 
+import shutil
+import socket
+import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
+from pathlib import Path
 
 import pytest
 import redis
-from app_support import FakeClock
+from app_support import SMALL_CAMERA, FakeClock
+from fastapi.testclient import TestClient
 
 from agent.geometry import Camera
 from agent.planning import PlannerConfig, make_planner
 from agent.session import AgentSession
+from app.keys import hash_key
 from app.redis_store import LeaseLost, RedisSessionStore
 from app.store import InMemorySessionStore, SessionBusy, SessionNotFound, SessionStore, StoreFull
 from symbolic.ontology import load_ontology
@@ -278,3 +284,103 @@ def test_redis_a_request_whose_lease_was_taken_over_stores_nothing(
         redis.Redis.from_url(redis_url).set(f"{redis_prefix}:lease:a", "another-worker", px=1000)
     with second.hold("a", None, 2.0, write=False) as held:
         assert held.session.step == 0
+
+
+@pytest.fixture
+def own_redis(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    """A redis-server of this test's own, which the test may stop (the shared one must stay up)."""
+    binary = shutil.which("redis-server")
+    if binary is None:
+        pytest.skip("no redis-server binary on PATH to start a Redis this test may stop")
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = subprocess.Popen(
+        [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"],
+        cwd=tmp_path_factory.mktemp("own-redis"),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    url = f"redis://127.0.0.1:{port}/0"
+    deadline = time.monotonic() + 10.0
+    while True:
+        try:
+            redis.Redis.from_url(url).ping()
+            break
+        except redis.RedisError:
+            assert time.monotonic() < deadline and server.poll() is None, "redis-server did not start"
+            time.sleep(0.05)
+    yield url, server
+    server.kill()
+    server.wait(timeout=10)
+
+
+def test_a_store_that_stops_answering_is_a_503_to_retry_and_not_ready(
+    own_redis: tuple[str, subprocess.Popen[bytes]], make_client: Callable[..., TestClient]
+) -> None:
+    url, server = own_redis
+    client = make_client(store=url, api_keys=f"alice:{hash_key('alice-key')}")
+    headers = {"Authorization": "Bearer alice-key"}
+    created = client.post(
+        "/v1/sessions",
+        json={"mode": "tfd", "subgoals": "Open Fridge", "camera": SMALL_CAMERA},
+        headers=headers,
+    )
+    assert created.status_code == 201 and client.get("/readyz").status_code == 200
+    server.kill()
+    server.wait(timeout=10)
+
+    read = client.get(f"/v1/sessions/{created.json()['session_id']}", headers=headers)
+    listed = client.get("/v1/sessions", headers=headers)  # the key check's rate limiter asks Redis first
+    ready = client.get("/readyz")
+
+    for refused in (read, listed):
+        assert refused.status_code == 503, refused.text
+        assert refused.json()["error"] == "store_unavailable" and refused.headers["Retry-After"] == "1"
+    assert ready.status_code == 503 and "session store" in ready.json()["detail"]
+
+
+def test_redis_a_hold_that_changed_nothing_writes_no_new_snapshot(
+    two_workers: tuple[RedisSessionStore, RedisSessionStore], redis_url: str, redis_prefix: str
+) -> None:
+    """A retried step is answered again without storing the same state again."""
+    first, second = two_workers
+    first.create(_session("a"), None)
+    version = redis.Redis.from_url(redis_url).hget(f"{redis_prefix}:s:a", "ver")
+    with first.hold("a", None, 1.0, write=True) as held:
+        held.changed = False
+    with second.hold("a", None, 1.0, write=True) as held:
+        held.session.step = 3
+
+    assert version == b"1"
+    assert redis.Redis.from_url(redis_url).hget(f"{redis_prefix}:s:a", "ver") == b"2"
+
+
+def test_redis_a_loaded_session_plans_and_perceives_with_the_loading_services_configuration(
+    redis_url: str, redis_prefix: str
+) -> None:
+    """What a snapshot names (a planner, network paths) is resolved by the worker that loads it, with its
+    own settings: a stored path never picks the checkpoints a worker uses."""
+    from agent.perception import NetworkPaths
+
+    first = RedisSessionStore(
+        redis_url, max_sessions=2, ttl_s=60.0, lease_s=1.0, ontology=ONTOLOGY, prefix=redis_prefix
+    )
+    configured = NetworkPaths(depth=Path("/srv/models/depth"), segmentation=Path("/srv/models/seg"))
+    second = RedisSessionStore(
+        redis_url,
+        max_sessions=2,
+        ttl_s=60.0,
+        lease_s=1.0,
+        ontology=ONTOLOGY,
+        prefix=redis_prefix,
+        planners=lambda name: make_planner(name, ONTOLOGY, PlannerConfig(max_subgoals=7)),
+        networks=configured,
+    )
+    first.create(_session("a"), None)
+
+    with second.hold("a", None, 1.0, write=False) as held:
+        assert held.session.planner.config.max_subgoals == 7  # type: ignore[attr-defined]
+        assert held.session.networks == configured
+    first.close()
+    second.close()

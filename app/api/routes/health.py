@@ -6,6 +6,7 @@ Liveness answers as soon as the process serves; readiness waits for the models t
 
 from __future__ import annotations
 
+import redis
 from fastapi import APIRouter, Request
 
 from app.api.responses import error_responses
@@ -37,4 +38,10 @@ def readyz(request: Request) -> ReadyOut:
         missing += preload.pending()  # the language planner, the perception networks (app.preload)
     if store is None or ontology is None or missing:
         raise ApiError(503, NOT_READY, f"not loaded yet: {', '.join(missing)}")
+    try:
+        store.check()
+    except redis.RedisError as error:
+        raise ApiError(
+            503, NOT_READY, f"the session store does not answer ({type(error).__name__})"
+        ) from error
     return ReadyOut(status="ready", sessions=len(store), object_types=len(ontology.types))

@@ -160,6 +160,7 @@ def step(
         last = session.last_decision
         if body.step is not None and last is not None and body.step == last.step:
             answer = step_result(last)  # a retry of the last answered step: same answer, nothing changes
+            held.changed = False
         else:
             if body.step is not None and body.step != session.step:
                 again = f" (or {last.step} again, to repeat the last answer)" if last is not None else ""
