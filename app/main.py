@@ -29,6 +29,7 @@ from app.logging_json import configure_json_logging
 from app.metrics import ServiceMetrics
 from app.preload import ModelPreload
 from app.rate_limit import InMemoryRateLimiter, RateLimiter, RedisRateLimiter
+from app.recycle import ConnectionRecycling
 from app.redis_store import RedisSessionStore, SnapshotObserver
 from app.request_log import RequestLog
 from app.session_builder import network_paths, planner_config
@@ -106,6 +107,7 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         read_timeout_s=settings.body_read_timeout_s,
     )
     app.add_middleware(KeyCheck, settings=settings)  # 401/429 before any body is read
+    app.add_middleware(ConnectionRecycling, every=settings.requests_per_connection)
     app.add_middleware(RequestLog, metrics=app.state.metrics)  # request id, log event, HTTP metrics
     return app
 

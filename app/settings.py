@@ -147,6 +147,14 @@ class Settings(BaseSettings):
         "thrashing over the GIL; 664 ms); two workers 91.0 with 1 each (18 ms) and 94.8 with 2 (31 ms). "
         "With one worker per core a second thread buys little and costs latency; alone it buys a third.",
     )
+    requests_per_connection: int = Field(
+        default=100,
+        ge=1,
+        description="Answers on one keep-alive connection before the service closes it (Connection: close), "
+        "so clients reconnect and the kernel spreads connections over the worker processes again; kept "
+        "for ever, they stayed with whichever worker took them (after a worker was killed, all on the "
+        "survivor). 100 costs one loopback handshake per 100 steps.",
+    )
     session_lease_s: float = Field(
         default=6.0,
         gt=0,

@@ -152,6 +152,21 @@ def _send(http: httpx.Client, path: str, body: bytes, result: StreamResult) -> h
         wait = min(wait * 2, 2.0)
 
 
+def _delete(http: httpx.Client, session_id: str, result: StreamResult) -> None:
+    """Free the session's slot; a connection a killed worker dropped is tried again (a 404 then means the
+    first try got through)."""
+    deadline = time.monotonic() + GIVE_UP_AFTER_S
+    while True:
+        try:
+            http.delete(f"/v1/sessions/{session_id}")
+            return
+        except httpx.TransportError:
+            if time.monotonic() > deadline:
+                raise
+            result.retries += 1
+            time.sleep(0.1)
+
+
 def play_stream(
     index: int, recorded: Sequence[RecordedEpisode], base_url: str, budget: int, progress: tqdm
 ) -> StreamResult:
@@ -190,7 +205,7 @@ def play_stream(
                 if _answer(response.json()) != expected:
                     outcome["end"] = "diverged"
                     break
-            http.delete(f"/v1/sessions/{session_id}")
+            _delete(http, session_id, result)
         except httpx.TransportError as error:
             result.errors.append(f"transport: {error!r}")
             outcome["end"] = "error"

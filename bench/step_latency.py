@@ -25,6 +25,7 @@ import json
 import os
 import platform
 import re
+import sys
 import time
 from collections import defaultdict
 from collections.abc import Sequence
@@ -35,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from bench.tatc_commander import current_commit
 from harness.client import AgentClient
 from harness.episodes.model import Episode
 from harness.runner import EpisodeRun, EpisodeUnavailable, RunnerOptions, generated_tfd_episode, run_episode
@@ -167,6 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     options = RunnerOptions()
+    load_before = os.getloadavg()[0]
     batch = episodes(max(args.episodes, len(BENCHMARK_TASKS)), options)
     with running_service() as service:
         latency = measure_latency(service, batch[: args.episodes], options)
@@ -182,6 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             "split": SPLIT,
         },
         "machine": {"cpu": platform.machine(), "cores_visible": os.cpu_count()},
+        "commit": current_commit(),
+        "command": " ".join(["python", "-m", "bench.step_latency", *(argv or sys.argv[1:])]),
+        "service": "one worker, in-memory store, its defaults (1 torch/OpenCV thread, 2 requests at a time)",
+        "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)},
         "latency": latency,
         "concurrency": concurrency,
     }

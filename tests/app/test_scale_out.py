@@ -117,6 +117,7 @@ def service(redis_url: str, redis_prefix: str, tmp_path: Path) -> Iterator[Servi
         "JARVIS_STORE_PREFIX": redis_prefix,
         "JARVIS_WORKERS": "2",
         "JARVIS_SESSION_LEASE_S": "2",  # a killed worker's lease lapses quickly
+        "JARVIS_REQUESTS_PER_CONNECTION": "4",
         "JARVIS_PRELOAD_MODELS": "false",  # the oracle planner needs no model
         "JARVIS_LOG_LEVEL": "info",
     }
@@ -265,3 +266,14 @@ def test_metrics_add_up_every_workers_numbers(service: Service) -> None:
     assert {sample(text, "jarvis_steps_total") for text in scrapes} == {6.0}
     assert {sample(text, "jarvis_snapshot_duration_seconds_count", op="save") for text in scrapes} == {7.0}
     assert {sample(text, "jarvis_sessions_live") for text in scrapes} == {1.0}
+
+
+def test_a_kept_alive_connection_is_recycled_and_the_client_goes_on(service: Service) -> None:
+    """Every 4th answer on a connection closes it (so clients spread over the workers again); a pooled
+    client's next request opens a new connection and succeeds."""
+    with httpx.Client(base_url=service.url, timeout=30.0) as http:
+        answers = [http.get("/v1/sessions") for _ in range(12)]
+
+    assert all(answer.status_code == 200 for answer in answers)
+    closing = [i for i, answer in enumerate(answers, start=1) if answer.headers.get("connection") == "close"]
+    assert closing == [4, 8, 12]
