@@ -323,7 +323,11 @@ class RedisSessionStore:
                 args = [token, session_id, self.ttl_ms, 1, snapshot, meta_json, int(stored.session.done)]
             else:
                 args = [token, session_id, self.ttl_ms, 0, b"", b"", 0]
-            result = int(self._release(keys=self._release_keys(session_id, owner, key), args=args))
+            try:
+                result = int(self._release(keys=self._release_keys(session_id, owner, key), args=args))
+            except redis.RedisError:
+                self._forget(session_id)  # whether the write landed is unknown: Redis decides next time
+                raise
             leased = False
             if result == -1:
                 self._forget(session_id)

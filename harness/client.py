@@ -166,7 +166,7 @@ class RetryPolicy:
     fails (a worker process died: the service's supervisor starts another, and the session continues from
     the shared store) or the answer is a passing refusal (``RETRYABLE_CODES``)."""
 
-    give_up_after_s: float = 60.0  # a worker killed mid-step holds its session's lease for up to 15 s
+    give_up_after_s: float = 60.0  # a worker killed mid-step holds its sessions for up to the lease (6 s)
     first_wait_s: float = 0.05
     longest_wait_s: float = 2.0
 
