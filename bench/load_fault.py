@@ -48,15 +48,14 @@ import redis
 from prometheus_client.parser import text_string_to_metric_families
 from tqdm import tqdm
 
+from bench.step_latency import episodes as generated_episodes
 from bench.tatc_commander import current_commit
 from harness.client import RETRYABLE_CODES, AgentClient
 from harness.episodes.model import Episode
-from harness.runner import EpisodeUnavailable, RunnerOptions, generated_tfd_episode, run_episode
+from harness.runner import RunnerOptions, run_episode
 from harness.service import RunningService, running_service
-from harness.splits import Split
 
 RESULTS = Path(__file__).resolve().parent / "results" / "load_fault.json"
-SPLIT: Split = "valid_unseen"
 SCALING_BAR = 1.7  # the issue's bar: 2 workers' aggregate steps/s over 1 worker's
 GIVE_UP_AFTER_S = 120.0  # a request keeps being retried this long (a killed worker's lease lapses in 6 s)
 SAMPLE_EVERY_S = 1.0  # worker RSS sampling period
@@ -77,17 +76,6 @@ class RecordedEpisode:
 
 def _answer(body: Mapping[str, Any]) -> Answer:
     return (str(body["action"]), body.get("x"), body.get("y"))
-
-
-def find_episodes(count: int, options: RunnerOptions) -> list[Episode]:
-    """The first ``count`` generated valid_unseen TfD episodes (task i % 12); skipped games left out."""
-    found: list[Episode] = []
-    index = 0
-    while len(found) < count:
-        with contextlib.suppress(EpisodeUnavailable):
-            found.append(generated_tfd_episode(SPLIT, index, options.camera))
-        index += 1
-    return found
 
 
 def record_episode(episode: Episode, base_url: str, options: RunnerOptions) -> RecordedEpisode:
@@ -440,7 +428,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     options = RunnerOptions()
     started = time.time()
-    episodes = find_episodes(args.episodes, options)
+    episodes = generated_episodes(args.episodes, options)
     with running_service(env={"JARVIS_PRELOAD_MODELS": "false"}) as service:
         recorded = [
             record_episode(episode, service.base_url, options)
