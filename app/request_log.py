@@ -31,6 +31,10 @@ from app.metrics import UNMATCHED_ROUTE, ServiceMetrics
 _LOG = logging.getLogger("app.request")
 
 REQUEST_ID_HEADER = "X-Request-ID"
+PLANNER_TIME_HEADER = "X-Planner-Time-Ms"
+"""On an answer for which the language planner ran (a session created or re-planned): its milliseconds,
+so a client or a bench can tell the planner's own time from the wait in the worker's queue."""
+_PLANNER_TIME_NAME = PLANNER_TIME_HEADER.lower().encode()
 _SANE_REQUEST_ID = re.compile(r"[A-Za-z0-9._-]{1,128}")
 _MAX_ERROR_BODY = 16 * 1024
 """Bytes of an error body kept to read its code; error bodies are a code and one line of detail."""
@@ -106,6 +110,8 @@ class RequestLog:
                 status = message["status"]
                 headers = [(k, v) for k, v in message.get("headers", []) if k.lower() != b"x-request-id"]
                 headers.append((b"x-request-id", request_id.encode()))
+                if planner_s:
+                    headers.append((_PLANNER_TIME_NAME, f"{sum(planner_s) * 1e3:.3f}".encode()))
                 message = {**message, "headers": headers}
                 for name, value in headers:
                     if name.lower() == b"content-type":
@@ -116,8 +122,14 @@ class RequestLog:
                     error_body.extend(message.get("body", b"")[:room])
             await send(message)
 
+        planner_s: list[float] = []
+
+        def observe_planner(seconds: float) -> None:
+            planner_s.append(seconds)
+            self.metrics.observe_planner_call(seconds)
+
         id_token = REQUEST_ID.set(request_id)
-        observer_token = PLANNER_CALL_OBSERVER.set(self.metrics.observe_planner_call)
+        observer_token = PLANNER_CALL_OBSERVER.set(observe_planner)
         try:
             await self.app(scope, receive, recording_send)
         finally:
@@ -131,6 +143,8 @@ class RequestLog:
                 "status": status,
                 "duration_ms": round(seconds * 1000.0, 3),
             }
+            if planner_s:
+                fields["planner_ms"] = round(sum(planner_s) * 1000.0, 3)
             if status >= 400:
                 code = error_code(status, content_type, bytes(error_body))
                 fields["error"] = code

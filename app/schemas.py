@@ -475,7 +475,8 @@ class StepRequest(RequestModel):
 
     rgb: str | None = Field(
         default=None,
-        description="Base64 PNG or JPEG colour frame of the camera's size.",
+        description="Base64 PNG or JPEG colour frame of the camera's size, or a .npy file of uint8 [H, W, 3] "
+        "RGB (nothing to decode: the fastest form where the link is fast).",
         examples=["iVBORw0KGgo..."],
         json_schema_extra=_BASE64,
     )
@@ -498,7 +499,8 @@ class StepRequest(RequestModel):
     )
     segmentation: str | None = Field(
         default=None,
-        description="Base64 PNG (16- or 8-bit, one channel) of instance ids, camera-sized.",
+        description="Base64 PNG (16- or 8-bit, one channel) of instance ids, camera-sized, or a .npy file of "
+        "non-negative integer ids [H, W].",
         examples=["iVBORw0KGgo..."],
         json_schema_extra=_BASE64,
     )

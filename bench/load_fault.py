@@ -36,7 +36,7 @@ import sys
 import threading
 import time
 import uuid
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,6 +70,7 @@ class RecordedEpisode:
     task: str
     create_body: bytes
     step_bodies: list[bytes]
+    step_content_types: list[str]  # JSON, or multipart with each body's own boundary
     answers: list[Answer]
     success: bool
 
@@ -80,12 +81,12 @@ def _answer(body: Mapping[str, Any]) -> Answer:
 
 def record_episode(episode: Episode, base_url: str, options: RunnerOptions) -> RecordedEpisode:
     """Play one episode live through the service, keeping every request body and answer."""
-    sent: list[tuple[str, bytes]] = []
+    sent: list[tuple[str, bytes, str]] = []
     answers: list[Answer] = []
 
     def keep(request: httpx.Request) -> None:
         if request.method == "POST":
-            sent.append((request.url.path, request.read()))
+            sent.append((request.url.path, request.read(), request.headers.get("content-type", "")))
 
     def heard(_: object, result: Mapping[str, Any]) -> None:
         answers.append(_answer(result))
@@ -93,12 +94,18 @@ def record_episode(episode: Episode, base_url: str, options: RunnerOptions) -> R
     http = httpx.Client(base_url=base_url, timeout=120.0, event_hooks={"request": [keep]})
     with AgentClient(base_url, http=http) as client:
         run = run_episode(episode, client, options, on_step=heard)
-    steps = [body for path, body in sent if path.endswith("/step")]
-    creates = [body for path, body in sent if path == "/v1/sessions"]
+    steps = [(body, kind) for path, body, kind in sent if path.endswith("/step")]
+    creates = [body for path, body, _ in sent if path == "/v1/sessions"]
     assert len(steps) == len(answers) and len(creates) == 1, (len(steps), len(answers), len(creates))
     outcome = run.outcome
     return RecordedEpisode(
-        outcome.instance_id, outcome.task_name, creates[0], steps, answers, outcome.success
+        outcome.instance_id,
+        outcome.task_name,
+        creates[0],
+        [body for body, _ in steps],
+        [kind for _, kind in steps],
+        answers,
+        outcome.success,
     )
 
 
@@ -115,13 +122,19 @@ class StreamResult:
     lost_sessions: int = 0
 
 
-def _send(http: httpx.Client, path: str, body: bytes, result: StreamResult) -> httpx.Response:
+def _send(
+    http: httpx.Client,
+    path: str,
+    body: bytes,
+    result: StreamResult,
+    content_type: str = "application/json",
+) -> httpx.Response:
     """POST with retries on a dead connection or a passing refusal (the same step index is idempotent)."""
     deadline = time.monotonic() + GIVE_UP_AFTER_S
     wait = 0.05
     while True:
         try:
-            response = http.post(path, content=body, headers={"content-type": "application/json"})
+            response = http.post(path, content=body, headers={"content-type": content_type})
             if response.status_code < 400:
                 return response
             code = (
@@ -174,9 +187,10 @@ def play_stream(
                 result.episodes.append(outcome)
                 continue
             session_id = created.json()["session_id"]
-            for body, expected in zip(episode.step_bodies, episode.answers, strict=True):
+            steps = zip(episode.step_bodies, episode.step_content_types, episode.answers, strict=True)
+            for body, content_type, expected in steps:
                 started = time.perf_counter()
-                response = _send(http, f"/v1/sessions/{session_id}/step", body, result)
+                response = _send(http, f"/v1/sessions/{session_id}/step", body, result, content_type)
                 result.client_ms.append((time.perf_counter() - started) * 1e3)
                 if response.status_code == 404:
                     result.lost_sessions += 1
@@ -327,9 +341,14 @@ def measured_run(
     steps: int,
     redis_url: str,
     kills: int = 0,
+    env: Mapping[str, str] | None = None,
+    during: Callable[[str, threading.Event], Any] | None = None,
 ) -> dict[str, Any]:
     """One replay run through a fresh service with ``workers`` processes; ``kills`` workers are SIGKILLed at
-    evenly spaced points of the run (each replaced by uvicorn's supervisor)."""
+    evenly spaced points of the run (each replaced by uvicorn's supervisor).
+
+    ``env`` adds service settings. ``during(base_url, stop)`` runs in its own thread while the sessions
+    step, until ``stop`` is set as the last one finishes; what it returns is the result's ``during``."""
     prefix = f"jarvis-bench-{uuid.uuid4().hex[:8]}"
     env = {
         "JARVIS_STORE": redis_url,
@@ -338,6 +357,7 @@ def measured_run(
         "JARVIS_PRELOAD_MODELS": "false",  # oracle planner and perception: no model is used
         "JARVIS_MAX_SESSIONS": str(max(256, 2 * sessions)),
         "JARVIS_LOG_LEVEL": "warning",  # 30k request events would cost the workers time to write
+        **(env or {}),
     }
     store = redis.Redis.from_url(redis_url)
     total = sessions * steps
@@ -348,12 +368,14 @@ def measured_run(
         progress = tqdm(total=total, desc=f"{workers} worker(s){', kills' if kills else ''}", unit="step")
         redis_cpu_before = redis_cpu_seconds(store)
         client_cpu_before = time.process_time()
-        with sampling_workers(service) as workers_seen, ThreadPoolExecutor(sessions) as pool:
+        stop = threading.Event()
+        with sampling_workers(service) as workers_seen, ThreadPoolExecutor(sessions + 1) as pool:
             started = time.perf_counter()
             futures = [
                 pool.submit(play_stream, i, recorded, service.base_url, steps, progress)
                 for i in range(sessions)
             ]
+            side = pool.submit(during, service.base_url, stop) if during is not None else None
             kill_at = [total * (k + 1) // (kills + 1) for k in range(kills)]
             while not all(f.done() for f in futures):
                 time.sleep(0.2)
@@ -365,7 +387,9 @@ def measured_run(
                     os.kill(victim, signal.SIGKILL)
                     killed.append(victim)
             wall_s = time.perf_counter() - started
+            stop.set()
             streams = [f.result() for f in futures]
+            during_result = side.result() if side is not None else None
         client_cpu_s = time.process_time() - client_cpu_before
         redis_cpu_s = redis_cpu_seconds(store) - redis_cpu_before
         progress.close()
@@ -408,6 +432,7 @@ def measured_run(
         "redis_memory_per_session": redis_sizes,
         "snapshots": snapshot_timings(metrics),
         "load_average_1min": {"before": round(before[0], 2), "after": round(load_after, 2)},
+        **({"during": during_result} if during is not None else {}),
     }
 
 

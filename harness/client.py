@@ -3,7 +3,9 @@
 The harness talks to the agent only through this client: it never imports ``app``, ``agent`` or ``models``.
 Frames are sent as AI2-THOR provides them to a TEACh runner: RGB as PNG (or JPEG), depth as a 16-bit PNG of
 millimetres (or raw float32 metres) and, for oracle perception, instance ids as a 16-bit PNG with an
-``{id: object type}`` legend; by default base64 in JSON, or as file parts of a multipart form.
+``{id: object type}`` legend; by default base64 in JSON, or as file parts of a multipart form. Where the
+service is near (the same host, a fast link), ``ARRAY_FRAMES`` sends the arrays themselves (``.npy`` RGB
+and instance ids, raw float32 depth) as file parts: nothing to compress here or to decode there.
 
 ``TeachRemoteModel`` speaks the other protocol the service serves: TEACh's ``RemoteModel`` forms (JPEG frames
 only), as TEACh's own inference runner sends them.
@@ -32,8 +34,9 @@ MILLIMETRES_PER_METRE = 1000.0
 PNG_COMPRESSION = 1
 """cv2 PNG level 0-9: 1 keeps encoding at a few ms per 300x300 frame; the bytes stay lossless."""
 
-RgbFormat = Literal["png", "jpeg"]
+RgbFormat = Literal["png", "jpeg", "npy"]
 DepthEncoding = Literal["png16_mm", "float32_m"]
+SegmentationFormat = Literal["png16", "npy"]
 Transport = Literal["json", "multipart"]
 
 
@@ -41,9 +44,10 @@ Transport = Literal["json", "multipart"]
 class FrameEncoding:
     """How a frame travels to the step route."""
 
-    rgb_format: RgbFormat = "png"  # png: lossless; jpeg: what TEACh's RemoteModel sends
+    rgb_format: RgbFormat = "png"  # png: lossless; jpeg: what TEACh's RemoteModel sends; npy: the array
     jpeg_quality: int = 90  # 0-100, only for rgb_format "jpeg"
     depth: DepthEncoding = "png16_mm"  # 16-bit PNG of millimetres, or little-endian float32 metres
+    segmentation: SegmentationFormat = "png16"  # instance ids as a 16-bit PNG, or the array as .npy
     transport: Transport = "json"  # base64 in a JSON body, or file parts of multipart/form-data
     send_rgb: bool = True  # oracle perception reads only depth + segmentation; AI2-THOR always has RGB
     send_oracle: bool = True  # depth + instance segmentation and its legend (what oracle perception reads)
@@ -55,6 +59,11 @@ class FrameEncoding:
             raise ValueError(
                 "a frame needs rgb or the oracle channels: send_rgb and send_oracle are both off"
             )
+
+
+ARRAY_FRAMES = FrameEncoding(rgb_format="npy", depth="float32_m", segmentation="npy", transport="multipart")
+"""Frames as arrays in file parts: about 0.9 MB a 300x300 step (against 0.23 MB of PNGs in base64), and
+neither side compresses or decodes (the service's decoding took 2.2 ms of PNGs, 0.3 ms of arrays)."""
 
 
 class ServiceError(Exception):
@@ -77,8 +86,17 @@ def pose_of(agent: AgentState) -> dict[str, float]:
     return {"x": agent.x, "z": agent.z, "yaw": float(agent.yaw % 360), "horizon": float(agent.horizon)}
 
 
+def encode_npy(array: np.ndarray) -> bytes:
+    """An array as a ``.npy`` file (its header says dtype and shape; nothing is pickled)."""
+    buffer = io.BytesIO()
+    np.save(buffer, np.ascontiguousarray(array), allow_pickle=False)
+    return buffer.getvalue()
+
+
 def encode_rgb(rgb: np.ndarray, fmt: RgbFormat = "png", jpeg_quality: int = 90) -> bytes:
-    """uint8 [H, W, 3] RGB as PNG or JPEG bytes."""
+    """uint8 [H, W, 3] RGB as PNG, JPEG or .npy bytes."""
+    if fmt == "npy":
+        return encode_npy(rgb.astype(np.uint8, copy=False))
     bgr = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2BGR)
     if fmt == "jpeg":
         ok, data = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality])
@@ -105,10 +123,12 @@ def encode_depth(depth_m: np.ndarray, encoding: DepthEncoding = "png16_mm") -> b
     return encode_uint16_png(millimetres)
 
 
-def encode_instances(instances: np.ndarray) -> bytes:
-    """int32 [H, W] instance ids as a 16-bit PNG (the service's segmentation input)."""
+def encode_instances(instances: np.ndarray, fmt: SegmentationFormat = "png16") -> bytes:
+    """int32 [H, W] instance ids as a 16-bit PNG or a uint16 .npy (the service's segmentation input)."""
     if instances.size and (instances.min() < 0 or instances.max() > np.iinfo(np.uint16).max):
         raise ValueError(f"instance ids must lie in 0..65535, got {instances.min()}..{instances.max()}")
+    if fmt == "npy":
+        return encode_npy(instances.astype(np.uint16))
     return encode_uint16_png(instances)
 
 
@@ -119,7 +139,7 @@ def observation_parts(frame: Frame, encoding: FrameEncoding) -> dict[str, bytes]
         parts["depth"] = encode_depth(frame.depth, encoding.depth)
         if frame.depth_uncertainty is not None:
             parts["depth_uncertainty"] = encode_depth(frame.depth_uncertainty, encoding.depth)
-        parts["segmentation"] = encode_instances(frame.instances)
+        parts["segmentation"] = encode_instances(frame.instances, encoding.segmentation)
     if encoding.send_rgb:
         if frame.rgb is None:
             raise ValueError("send_rgb is set but the frame was rendered without rgb")
@@ -138,9 +158,11 @@ def _form_value(value: object) -> str:
 
 def _file_name(field: str, encoding: FrameEncoding) -> str:
     if field == "rgb":
-        return "rgb.jpg" if encoding.rgb_format == "jpeg" else "rgb.png"
+        return {"jpeg": "rgb.jpg", "npy": "rgb.npy", "png": "rgb.png"}[encoding.rgb_format]
     if field in ("depth", "depth_uncertainty") and encoding.depth == "float32_m":
         return f"{field}.f32"
+    if field == "segmentation" and encoding.segmentation == "npy":
+        return "segmentation.npy"
     return f"{field}.png"
 
 

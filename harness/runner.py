@@ -21,7 +21,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal, get_args
 
@@ -30,7 +30,7 @@ import numpy as np
 from PIL import Image
 
 from harness.camera import CameraSpec
-from harness.client import AgentClient, FrameEncoding, ServiceError, TeachRemoteModel, pose_of
+from harness.client import ARRAY_FRAMES, AgentClient, FrameEncoding, ServiceError, TeachRemoteModel, pose_of
 from harness.episodes.build import BuildConfig, BuildError
 from harness.episodes.generate import GenerateConfig, generate_one, write_game
 from harness.episodes.model import Episode
@@ -93,6 +93,7 @@ class RunnerOptions:
     record_frames: bool = False  # keep every egocentric RGB frame (for a GIF)
     send_rgb: bool = True  # oracle perception does not read RGB; AI2-THOR always renders it
     transport: Literal["json", "multipart"] = "json"
+    frames: Literal["png", "arrays"] = "png"  # arrays: .npy RGB and ids, float32 depth (ARRAY_FRAMES)
     seed: int = 0  # the session's seed
     delete_session: bool = True  # free the service's slot when done (keep it to read map.png and trace)
 
@@ -103,7 +104,9 @@ class RunnerOptions:
             raise ValueError(f"max_failures must be at least 1, got {self.max_failures}")
 
     def encoding(self) -> FrameEncoding:
-        return FrameEncoding(
+        base = ARRAY_FRAMES if self.frames == "arrays" else FrameEncoding()
+        return replace(
+            base,
             transport=self.transport,
             send_rgb=self.send_rgb or self.perception == "learned",
             send_oracle=self.perception == "oracle",
@@ -706,6 +709,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--no-noise", action="store_true", help="render without light/sensor noise")
     parser.add_argument("--multipart", action="store_true", help="send frames as multipart file parts")
+    parser.add_argument(
+        "--frames",
+        choices=("png", "arrays"),
+        default="png",
+        help="png: PNG images as AI2-THOR runners send; arrays: .npy RGB and ids, float32 depth",
+    )
     parser.add_argument("--json", type=Path, help="write the run's summary (metrics, actions) here")
     return parser
 
@@ -735,6 +744,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         give_success=args.give_success,
         noise=not args.no_noise,
         transport="multipart" if args.multipart else "json",
+        frames=args.frames,
     )
     try:
         episode = _chosen_episode(args, camera)

@@ -24,7 +24,7 @@ steps instead of the frame itself (DESIGN.md §8's 2 MB per session).
 
 from __future__ import annotations
 
-import hashlib
+import zlib
 from dataclasses import dataclass
 
 import cv2
@@ -57,7 +57,7 @@ class SuccessConfig:
 class FrameDigest:
     """What the next step needs of this frame to tell whether the action taken from it changed anything."""
 
-    geometry: bytes | None  # blake2b of depth and instance bytes; None without both
+    geometry: bytes | None  # CRC-32s of depth and instance ids (every other pixel); None without both
     thumbnail: np.ndarray | None  # float32 [S, S, 3] exposure-normalised colours; None without RGB
     clipped: np.ndarray | None  # bool [S, S]: cells holding saturated pixels
     exposure: np.ndarray | None  # float32 [3] per-channel mean of the frame
@@ -79,15 +79,16 @@ class SuccessEstimate:
 def digest(obs: Observation, config: SuccessConfig) -> FrameDigest:
     """The summary of one observation (about 1 ms at 300x300).
 
-    The geometry hash reads every other row and column: any change an action makes to depth or
+    The geometry fingerprint reads every other row and column: any change an action makes to depth or
     segmentation (an object moved, a door swung, the view turned) spans more than a 2x2 block of pixels.
+    It is a CRC-32 of each (64 bits together): it only tells a changed frame from the same one, never
+    faces an adversary, and takes 0.06 ms where blake2b took 0.24.
     """
     geometry = None
     if obs.depth is not None and obs.instances is not None:
-        hasher = hashlib.blake2b(digest_size=16)
-        for array in (obs.depth[::2, ::2], obs.instances[::2, ::2]):
-            hasher.update(np.ascontiguousarray(array).tobytes())
-        geometry = hasher.digest()
+        depth_crc = zlib.crc32(np.ascontiguousarray(obs.depth[::2, ::2]).data)
+        instances_crc = zlib.crc32(np.ascontiguousarray(obs.instances[::2, ::2]).data)
+        geometry = depth_crc.to_bytes(4, "little") + instances_crc.to_bytes(4, "little")
     thumbnail = clipped = exposure = None
     if obs.rgb is not None:
         side = config.thumbnail_side

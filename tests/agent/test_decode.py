@@ -99,6 +99,66 @@ def test_depth_float32_metres_round_trips_exactly(frame, container: str) -> None
     np.testing.assert_array_equal(depth, frame.depth)
 
 
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()
+
+
+@pytest.mark.parametrize("as_text", [True, False])
+def test_npy_arrays_decode_to_exactly_the_frame(frame, as_text: bool) -> None:
+    def sent(array: np.ndarray) -> str | bytes:
+        return _b64(_npy(array)) if as_text else _npy(array)
+
+    obs = decode_observation(
+        CAMERA,
+        rgb=sent(frame.rgb),
+        depth=sent(frame.depth.astype(np.float32)),
+        depth_encoding="float32_m",
+        segmentation=sent(frame.instances.astype(np.uint16)),
+        segmentation_legend=frame.legend,
+    )
+    np.testing.assert_array_equal(obs.rgb, frame.rgb)
+    np.testing.assert_array_equal(obs.depth, frame.depth)
+    np.testing.assert_array_equal(obs.instances, frame.instances)
+    assert obs.instances is not None and obs.instances.dtype == np.int32
+    fortran = decode_rgb(_npy(np.asfortranarray(frame.rgb)), CAMERA)  # column-major files read right too
+    np.testing.assert_array_equal(fortran, frame.rgb)
+
+
+NPY_REFUSALS = [
+    ("float rgb", "rgb", lambda f: _npy(f.rgb.astype(np.float32)), "uint8"),
+    ("rgb wrong size", "rgb", lambda f: _npy(f.rgb[:-1]), "session camera"),
+    ("rgb cut short", "rgb", lambda f: _npy(f.rgb)[:-7], "declares"),
+    ("rgb header garbage", "rgb", lambda f: b"\x93NUMPY\x01\x00\x10\x00{'descr': nonsense}", ".npy"),
+    ("object array", "rgb", lambda f: _npy(np.zeros((H, W), np.complex64)), "numbers"),
+    ("ids one-dimensional", "segmentation", lambda f: _npy(f.instances.ravel()), "[H, W"),
+    ("negative ids", "segmentation", lambda f: _npy(-f.instances.astype(np.int32) - 1), ">= 0"),
+    ("float ids", "segmentation", lambda f: _npy(f.instances.astype(np.float32)), "integer"),
+    ("huge declared shape", "segmentation", lambda f: _npy(f.instances)[:10], ".npy"),
+]
+
+
+@pytest.mark.parametrize(("case", "field", "data", "words"), NPY_REFUSALS, ids=[c[0] for c in NPY_REFUSALS])
+def test_bad_npy_arrays_name_their_field(frame, case: str, field: str, data, words: str) -> None:
+    with pytest.raises(ObservationError) as error:
+        if field == "rgb":
+            decode_rgb(data(frame), CAMERA)
+        else:
+            decode_instances(data(frame), CAMERA)
+    assert error.value.field == field
+    assert words in error.value.detail, error.value.detail
+
+
+def test_a_npy_header_declaring_a_giant_image_is_refused_before_reading_pixels() -> None:
+    header = "{'descr': '|u1', 'fortran_order': False, 'shape': (100000, 100000, 3), }"
+    data = b"\x93NUMPY\x01\x00" + len(header.ljust(118) + "\n").to_bytes(2, "little")
+    data += (header.ljust(118) + "\n").encode() + b"\0" * 64
+    with pytest.raises(ObservationError) as error:
+        decode_rgb(data, CAMERA)
+    assert "session camera" in error.value.detail
+
+
 @pytest.mark.parametrize("encoding", ["uint16", "uint8", "rgb24"])
 def test_instance_pngs_round_trip(frame, encoding: str) -> None:
     ids = frame.instances

@@ -27,6 +27,14 @@ def test_without_subgoals_the_model_plans_from_the_dialogue(client: TestClient) 
     texts = _texts(body["plan"])
     assert texts[:2] == ["Navigate Mug", "Pickup Mug"]
     assert "Place CoffeeMachine" in texts
+    assert float(response.headers["X-Planner-Time-Ms"]) > 0  # its own time, apart from any queue
+
+
+def test_only_answers_the_planner_worked_on_carry_its_time(client: TestClient) -> None:
+    given = client.post("/v1/sessions", json={"mode": "tfd", "dialogue": COFFEE, "subgoals": "Slice Bread"})
+    assert given.status_code == 201 and "X-Planner-Time-Ms" not in given.headers
+    session = given.json()["session_id"]
+    assert "X-Planner-Time-Ms" not in client.get(f"/v1/sessions/{session}").headers
 
 
 def test_a_commander_turn_replans_and_a_session_without_words_waits_for_one(client: TestClient) -> None:

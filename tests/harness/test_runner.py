@@ -18,8 +18,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from agent.geometry import Camera
+from agent.perception.decode import decode_observation
 from harness.camera import CameraSpec
 from harness.client import (
+    ARRAY_FRAMES,
     AgentClient,
     FrameEncoding,
     ServiceError,
@@ -253,6 +256,34 @@ def test_multipart_and_json_frames_get_the_same_first_action(
             client.delete(session_id)
     assert answers[0]["action"] == answers[1]["action"]
     assert (answers[0]["x"], answers[0]["y"]) == (answers[1]["x"], answers[1]["y"])
+
+
+def test_array_frames_play_the_same_episode_over_json_and_multipart(
+    service: RunningService, short_episode: Episode
+) -> None:
+    runs = []
+    with AgentClient(service.base_url) as client:
+        for transport in ("json", "multipart"):
+            options = RunnerOptions(frames="arrays", transport=transport)  # type: ignore[arg-type]
+            runs.append(run_episode(short_episode, client, options))
+    assert runs[0].outcome.success and runs[1].outcome.success
+    assert [a.action for a in runs[0].actions] == [a.action for a in runs[1].actions]
+
+
+def test_array_frames_are_the_simulators_arrays_exactly(kitchen_frame: Any) -> None:
+    parts = observation_parts(kitchen_frame, ARRAY_FRAMES)
+    camera = Camera(CAMERA.width, CAMERA.height, CAMERA.hfov_deg)
+    obs = decode_observation(
+        camera,
+        rgb=parts["rgb"],
+        depth=parts["depth"],
+        depth_encoding=ARRAY_FRAMES.depth,
+        segmentation=parts["segmentation"],
+        segmentation_legend=kitchen_frame.legend,
+    )
+    np.testing.assert_array_equal(obs.rgb, kitchen_frame.rgb)
+    np.testing.assert_array_equal(obs.depth, kitchen_frame.depth)
+    np.testing.assert_array_equal(obs.instances, kitchen_frame.instances)
 
 
 def test_an_estimate_and_per_frame_ids_reach_the_service_over_either_transport(

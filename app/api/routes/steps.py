@@ -44,7 +44,8 @@ _MULTIPART_DOC: dict[str, Any] = {
                 "schema": {
                     "type": "object",
                     "description": "The StepRequest fields as form fields; images may be file parts "
-                    "(raw PNG/JPEG, 16-bit PNG or float32 bytes), pose and segmentation_legend JSON text.",
+                    "(raw PNG/JPEG, 16-bit PNG, float32 bytes, or .npy arrays: uint8 [H, W, 3] RGB, "
+                    "integer [H, W] ids, float32 [H, W] metres), pose and segmentation_legend JSON text.",
                     "properties": {
                         **{name: {"type": "string", "format": "binary"} for name in IMAGE_FIELDS},
                         "depth_encoding": {"type": "string", "enum": ["png16_mm", "float32_m"]},
