@@ -73,9 +73,17 @@ class ColourBranch(nn.Module):
         """``head``'s logits for the U-Net's ``features`` [B, F, H, W] plus this expert's for ``rgb01``:
         [B, classes, H, W], in one product."""
         B, _, H, W = features.shape
+        weight, bias, inputs = self.joint_product(features, head, rgb01)
+        logits = torch.baddbmm(bias[None, :, None], weight.expand(B, -1, -1), inputs)
+        return logits.view(B, -1, H, W)
+
+    def joint_product(
+        self, features: torch.Tensor, head: nn.Conv2d, rgb01: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The joined output layer: weight [classes, F + hidden], bias [classes] and its inputs
+        [B, F + hidden, H·W], for callers that lay the product out as they need."""
         assert head.bias is not None, "the U-Net's head has a bias"
         weight = torch.cat([head.weight[:, :, 0, 0], self.out.weight], dim=1)  # [classes, F + hidden]
         bias = head.bias + self.out.bias  # [classes]
         inputs = torch.cat([features.flatten(2), self.hidden(rgb01)], dim=1)  # [B, F + hidden, H·W]
-        logits = torch.baddbmm(bias[None, :, None], weight.expand(B, -1, -1), inputs)
-        return logits.view(B, -1, H, W)
+        return weight, bias, inputs

@@ -125,6 +125,23 @@ class PerceptionNet(nn.Module):
         with torch.autocast("cpu", dtype=torch.bfloat16, enabled=dtype == torch.bfloat16):
             return self(rgb)
 
+    def pixel_logits(self, rgb: torch.Tensor) -> torch.Tensor:
+        """``forward``'s logits laid out one row per pixel: uint8 RGB [B, H, W, 3] -> [B, H·W, out].
+
+        In this layout a per-pixel softmax and argmax read contiguous memory; the ONNX engine exports it
+        (``onnx_engine.py`` has the figures), as reading over [B, out, H, W] walks the class axis across
+        memory (``readout.read_classes`` works around that in torch)."""
+        rgb01 = rgb.permute(0, 3, 1, 2).float() * (1.0 / 255.0)
+        features = self.unet.features((rgb01 - RGB_MEAN) / RGB_STD)  # [B, F, H, W]
+        head = self.unet.head
+        assert head.bias is not None, "the U-Net's head has a bias"
+        if self.colour is None:
+            weight, bias, inputs = head.weight[:, :, 0, 0], head.bias, features.flatten(2)
+        else:
+            weight, bias, inputs = self.colour.joint_product(features, head, rgb01)
+        B = inputs.shape[0]
+        return torch.baddbmm(bias, inputs.transpose(1, 2), weight.t().expand(B, -1, -1))
+
     def expert_logits(self, rgb01: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """Each expert's logits [B, out, H, W] for float images in [0, 1]: the U-Net's, then the colour
         branch's when there is one."""
