@@ -5,7 +5,8 @@ The issue's bars: depth abs rel ≤ 0.15 and segmentation mIoU ≥ 0.6 on valid_
 harness from valid_unseen worlds (``harness.perception_data``; never seen in training) unless ``--frames``
 names a folder in the dataset layout. ``--compare-depth DIR ...`` evaluates further depth checkpoints on
 the same frames (the issue asks which bins serve better: HLSM's 50 x 0.1 m or TEACh's 100 x 5 cm). The
-networks run in the arithmetic the agent uses (``LearnedConfig.precision``); when that is bfloat16, the
+networks run in the arithmetic the agent uses (``models.perception.engine.resolve`` of ``LearnedConfig``:
+float32 by default, which ONNX Runtime computes to within 2 µm of torch's); when that is bfloat16, the
 headline metrics in float32 are given beside (``float32_reference``).
 
 Run: ``.venv/bin/python -m bench.perception_quality [--worlds 60]``; writes
@@ -26,8 +27,9 @@ from agent.perception.learned import LearnedConfig
 from harness.camera import CameraSpec
 from harness.perception_data import render_frames
 from models.perception.dataset import load_frames
+from models.perception.engine import resolve
 from models.perception.evaluate import evaluate_model
-from models.perception.network import inference_dtype, load_checkpoint, read_info
+from models.perception.network import load_checkpoint, read_info
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_quality.json"
 SEED = 0
@@ -73,7 +75,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     config = LearnedConfig()
-    dtype = inference_dtype(config.precision)
+    _, dtype = resolve(config.engine, config.precision)
     with tempfile.TemporaryDirectory() as scratch:
         root = args.frames
         if root is None:

@@ -89,9 +89,10 @@ def test_learned_perception_beats_blind_guesses_in_unseen_worlds():
 
 
 def test_bfloat16_arithmetic_sees_what_float32_sees_in_unseen_worlds():
-    """The shipped networks run in bfloat16 on CPUs that have it (a third faster per step): the classes,
-    the depth and which depths are trusted come out as in float32 on all but a sliver of pixels (measured:
-    99.8-99.99% keep their class, 99.1-99.4% their trust, the median depth moves 0.1%)."""
+    """Asked for bfloat16 (``precision="bfloat16"``, on torch; the default is float32 on ONNX Runtime), the
+    shipped networks see what they see in float32 on all but a sliver of pixels: the classes, the depth
+    and which depths are trusted (measured: 99.8-99.99% keep their class, 99.1-99.4% their trust, the
+    median depth moves 0.1%)."""
     camera = Camera(300, 300, 90.0)
     exact = LearnedPerception(camera, LearnedConfig(precision="float32"))
     rounded = LearnedPerception(camera, LearnedConfig(precision="bfloat16"))
