@@ -21,6 +21,7 @@ import argparse
 import json
 import os
 import platform
+import sys
 import time
 from collections import Counter, defaultdict
 from collections.abc import Sequence
@@ -31,6 +32,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from bench.tatc_commander import current_commit
 from harness.camera import CameraSpec
 from harness.client import AgentClient
 from harness.metrics import EpisodeOutcome, aggregate
@@ -186,12 +188,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "workers": args.workers,
     }
     started = time.perf_counter()
+    load_before = os.getloadavg()[0]
     if args.url is not None:
         results = _run_all(args.n, args.workers, args.url, camera)
     else:
         with running_service() as service:
             results = _run_all(args.n, args.workers, service.base_url, camera)
-    result = report(results, time.perf_counter() - started, config)
+    result = {
+        "commit": current_commit(),
+        "command": " ".join(
+            ["python", "-m", "bench.agent_oracle_tfd", *(argv if argv is not None else sys.argv[1:])]
+        ),
+        "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)},
+        **report(results, time.perf_counter() - started, config),
+    }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2))
     print_table(result)
