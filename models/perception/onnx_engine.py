@@ -1,11 +1,8 @@
 """The perception networks on ONNX Runtime's CPU engine, exported from the loaded checkpoint at load time.
 
-Nothing is generated on disk: ``torch.onnx.export`` writes each graph to memory (about a second for both
-networks, once per process, while the service preloads them) and ONNX Runtime builds its session from
-those bytes, so the safetensors checkpoint stays the one source of the weights and a user's checkpoint
-runs the same way. The exporter is torch's TorchScript-based one (``dynamo=False``): the torch.export
-one took 7 s for the two networks, needs onnxscript and prints progress to stdout, for the same graph
-speed. Float32 throughout (ONNX Runtime's CPU kernels have no bfloat16 convolutions).
+Nothing is generated on disk (``models/onnx_runtime.py``): each graph is exported to memory (about a
+second for both networks, once per process, while the service preloads them), so a user's checkpoint runs
+the same way. Float32 throughout (ONNX Runtime's CPU kernels have no bfloat16 convolutions).
 
 Each graph ends with what the agent reads (``readout.py``), computed over logits laid out one row per
 pixel (``PerceptionNet.pixel_logits``), where the per-pixel softmax, argmax and cumulative sum read
@@ -16,25 +13,14 @@ logits reduced by torch, and the segmentation's reading took about 7 ms against 
 
 from __future__ import annotations
 
-import io
-import threading
-import warnings
-
 import numpy as np
-import onnxruntime as ort
 import torch
 from torch import nn
 
+from models.onnx_runtime import export_graph, inference_session
 from models.perception.depth import INTERVAL_TAILS
 from models.perception.network import PerceptionNet
 from models.perception.readout import ClassReading, DepthReading
-
-OPSET = 18
-"""ONNX opset of the exported graphs (ONNX Runtime runs it since 1.14)."""
-EXPORT_LOCK = threading.Lock()
-"""Held by every ``torch.onnx.export`` in the process: the exporter keeps its state in module globals and
-fails (``GLOBALS.in_onnx_export must be False``) when a second export starts in another thread, as when a
-session loads networks while the service's preload exports another model."""
 
 
 class DepthReadout(nn.Module):
@@ -76,37 +62,6 @@ class ClassReadout(nn.Module):
         top, channel = probs.max(dim=1)  # ArgMax keeps the lowest channel of a tie, as read_classes does
         target_probability = probs.index_select(1, target)  # [s·s, 1]
         return channel.view(side, side), top.view(side, side), target_probability.view(side, side)
-
-
-def export_graph(module: nn.Module, example: dict[str, torch.Tensor]) -> bytes:
-    """``module`` traced on ``example`` (its inputs by name) as an ONNX graph in memory."""
-    buffer = io.BytesIO()
-    with EXPORT_LOCK, warnings.catch_warnings():
-        # The tracer warns about the shape asserts (constant for a fixed input side), the exporter about
-        # being the TorchScript one and about instance norm using per-image statistics (as it should).
-        warnings.simplefilter("ignore")
-        inputs = tuple(example.values())
-        torch.onnx.export(  # the TorchScript exporter writes to file objects; the stub names paths only
-            module,
-            inputs,
-            buffer,  # type: ignore[arg-type]
-            input_names=list(example),
-            opset_version=OPSET,
-            dynamo=False,
-        )
-    return buffer.getvalue()
-
-
-def inference_session(graph: bytes, threads: int) -> ort.InferenceSession:
-    """A CPU session with every graph optimisation, ``threads`` intra-op threads that sleep when idle
-    (spinning threads steal a busy machine's cores), and one request at a time per call."""
-    options = ort.SessionOptions()
-    options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-    options.intra_op_num_threads = threads
-    options.inter_op_num_threads = 1
-    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
-    return ort.InferenceSession(graph, options, providers=["CPUExecutionProvider"])
 
 
 class OnnxEngine:

@@ -110,9 +110,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     handwritten = args.handwritten or (HANDWRITTEN if HANDWRITTEN.is_file() else None)
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
-    generator = SubgoalGenerator.from_directory(
-        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias)
-    )
+    config = GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias, engine=args.engine)
+    generator = SubgoalGenerator.from_directory(args.checkpoint, ontology, config)
     sets = {}
     if args.data is not None:
         available = DatasetFiles(args.data).evaluation_sets()
@@ -145,6 +144,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             "step": meta.get("step"),
             "num_beams": args.beams,
             "navigate_bias": generator.navigate_bias,
+            "engine": generator.engine,
             "limit": args.limit,
             "sets": records,
         }
@@ -228,9 +228,8 @@ def _predict(args: argparse.Namespace) -> int:
         raise SystemExit("give at least one --turn 'Commander: ...' or an --instruction")
     history = parse_subgoals(args.history, ontology) if args.history else []
     source = format_planner_input(turns, history, args.instruction)
-    generator = SubgoalGenerator.from_directory(
-        args.checkpoint, ontology, GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias)
-    )
+    config = GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias, engine=args.engine)
+    generator = SubgoalGenerator.from_directory(args.checkpoint, ontology, config)
     prediction = generator.predict(source)
     print(f"input:     {source}")
     print(f"generated: {prediction.text}")
@@ -308,6 +307,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     evaluate.add_argument("--limit", type=int, default=0, help="evaluate the first N examples of each set")
     evaluate.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
+    evaluate.add_argument(
+        "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
+    )
     evaluate.set_defaults(run=_evaluate)
 
     calibrate = commands.add_parser(
@@ -330,6 +332,9 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--history", help="history subgoals, e.g. 'Pickup Mug, Place CoffeeMachine'")
     predict.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
     predict.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
+    predict.add_argument(
+        "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
+    )
     predict.set_defaults(run=_predict)
 
     average = commands.add_parser(

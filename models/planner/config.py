@@ -15,6 +15,10 @@ from types import MappingProxyType
 from typing import Literal
 
 BackboneKind = Literal["bart-scratch", "minilm-encdec"]
+DecodeEngine = Literal["auto", "torch", "onnx"]
+"""What runs beam search (``engines``): transformers' ``generate`` on the torch model (any checkpoint, and
+training's path), ONNX Runtime graphs of the same weights (``minilm-encdec`` with a plan vocabulary), or
+"auto": onnx where it applies, else torch."""
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,8 @@ class GenerationConfig:
     max_new_tokens: int = 300  # tokens; the seed's "maximum length of generated subgoal"
     navigate_bias: float | None = None  # added to the Navigate word's logit at each step of a decoder with a
     # plan vocabulary; None: the checkpoint's calibrated value (``calibrate``: planner_meta.json), else 0
+    engine: DecodeEngine = "auto"  # onnx where it applies: the same plans as torch's ``generate`` on every
+    # input measured, for a fraction of its CPU time at one thread (bench/results/planner_latency.json)
 
 
 @dataclass(frozen=True)

@@ -78,7 +78,8 @@ class PlanVocabulary:
     def allowed_next(self, generated: Sequence[int]) -> list[int]:
         """Ids the grammar allows after ``generated`` (which starts with the start id): an action or the
         end after a complete pair, a type after an action, padding once ended."""
-        body = [i for i in generated if i not in (self.pad_id, self.start_id)]
+        pad, start = self.pad_id, self.start_id
+        body = [i for i in generated if i != pad and i != start]
         if body and body[-1] == self.end_id:
             return [self.pad_id]
         if len(body) % 2 == 1:

@@ -16,9 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-import torch
-
 from models.planner.config import GenerationConfig
+from models.planner.engines import DecodeSettings, make_decoder, resolve_engine
 from models.planner.modeling import (
     PlannerModel,
     encoder_positions,
@@ -134,7 +133,8 @@ at once on a fresh service); generations on 2 cores gain nothing in parallel any
 
 
 class SubgoalGenerator:
-    """A loaded planner model that turns formatted inputs into validated plans (beam search)."""
+    """A loaded planner model that turns formatted inputs into validated plans (beam search on the
+    ``generation.engine``, built once here: the onnx engine exports its graphs now, not on the first call)."""
 
     def __init__(
         self, planner: PlannerModel, ontology: Ontology, generation: GenerationConfig | None = None
@@ -146,6 +146,15 @@ class SubgoalGenerator:
         self.max_new_tokens = min(self.generation.max_new_tokens, target_token_limit(planner))
         self.navigate_bias = navigate_bias(planner, self.generation)
         self.reads_instruction_mark = INSTRUCTION_MARK not in missing_marks(planner.tokenizer)
+        self.engine = resolve_engine(self.generation.engine, planner)
+        settings = DecodeSettings(
+            num_beams=self.generation.num_beams,
+            max_source_tokens=self.max_source_tokens,
+            max_new_tokens=self.max_new_tokens,
+            bias=self._token_bias(),
+        )
+        with TORCH_LOCK:  # an export traces torch code, which a load in another thread would disturb
+            self.decoder = make_decoder(self.generation.engine, planner, settings)
 
     def readable(self, source: str) -> str:
         """``source`` as this model was trained to read it: a checkpoint from before the <INS> mark was
@@ -170,41 +179,14 @@ class SubgoalGenerator:
         search and decoded word by word; any other seq2seq model decodes with its tokenizer."""
         if not sources:
             return []
-        tokenizer = self.planner.tokenizer
-        vocab = self.planner.plan_vocab
-        grammar = None
-        if vocab is not None:
+        with TORCH_LOCK:
+            return self.decoder.generate_texts([self.readable(source) for source in sources])
 
-            def grammar(_: int, generated: torch.Tensor) -> list[int]:
-                return vocab.allowed_next(generated.tolist())
-
-        with TORCH_LOCK, torch.inference_mode():
-            tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
-            encoded = tokenizer(
-                [self.readable(source) for source in sources],
-                return_tensors="pt",
-                padding=True,
-                truncation=True,
-                max_length=self.max_source_tokens,
-            )
-            output = self.planner.model.generate(  # type: ignore[operator]
-                input_ids=encoded["input_ids"],
-                attention_mask=encoded["attention_mask"],
-                num_beams=self.generation.num_beams,
-                max_new_tokens=self.max_new_tokens,
-                early_stopping=True,
-                prefix_allowed_tokens_fn=grammar,
-                sequence_bias=self._sequence_bias(),
-            )
-        if vocab is not None:
-            return [vocab.decode(row.tolist()) for row in output]
-        return [text.strip() for text in tokenizer.batch_decode(output, skip_special_tokens=True)]
-
-    def _sequence_bias(self) -> dict[tuple[int, ...], float] | None:
+    def _token_bias(self) -> dict[int, float]:
         vocab = self.planner.plan_vocab
         if vocab is None or not self.navigate_bias:
-            return None
-        return {(vocab.words.index(SubgoalAction.NAVIGATE.value),): self.navigate_bias}
+            return {}
+        return {vocab.words.index(SubgoalAction.NAVIGATE.value): self.navigate_bias}
 
     def predict_many(self, sources: Sequence[str]) -> list[PlanPrediction]:
         predictions = []
