@@ -1,12 +1,12 @@
 """Refuse work that waited too long to start (503 ``overloaded`` with ``Retry-After``).
 
-FastAPI runs the synchronous handlers (every step, every session route) in a pool of worker threads;
-under overload requests queue for a thread, and a request served after its client gave up is work for
-nobody that delays every request behind it. ``refuse_stale_request`` is a synchronous global dependency,
-so it runs when the request got its worker thread, right before its handler: a request that waited
-longer than ``request_queue_deadline_s`` since its body was read (``app.body_limit.QUEUED_SINCE``)
-answers 503 there, before anything changes. Health, readiness and metrics are exempt: a probe must see the
-process alive however busy it is.
+The session and step work runs in a pool of worker threads; under overload requests queue for a thread,
+and a request served after its client gave up is work for nobody that delays every request behind it.
+``refuse_stale_request`` is synchronous, so it runs once the request got its worker thread, right before
+its work: a request that waited longer than ``request_queue_deadline_s`` since its body was read
+(``app.body_limit.QUEUED_SINCE``) answers 503 there, before anything changes. The session and TEACh routes
+take it as a dependency; the step route calls it first in the one worker-thread call it makes. Health,
+readiness and metrics are exempt: a probe must see the process alive however busy it is.
 """
 
 from __future__ import annotations

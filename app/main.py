@@ -86,18 +86,20 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         version=service_version(),
         description=DESCRIPTION,
         lifespan=lifespan,
-        dependencies=[Depends(refuse_stale_request)],  # 503 overloaded after request_queue_deadline_s
     )
     app.state.settings = settings
     app.state.model_preload = None
     app.state.metrics = ServiceMetrics(
         lambda: None if getattr(app.state, "store", None) is None else len(app.state.store)
     )
+    # 503 overloaded after request_queue_deadline_s, checked once a worker thread is free; the step route
+    # checks in its own (single) worker thread, and health and metrics answer however busy the service is.
+    stale = [Depends(refuse_stale_request)]
     app.include_router(health.router)
     app.include_router(metrics.router)
-    app.include_router(sessions.router)
+    app.include_router(sessions.router, dependencies=stale)
     app.include_router(steps.router)
-    app.include_router(teach.router)
+    app.include_router(teach.router, dependencies=stale)
     install_error_handlers(app)
     # The last middleware added runs first: log every request, including bodies refused for size.
     app.add_middleware(

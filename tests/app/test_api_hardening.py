@@ -245,6 +245,34 @@ def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() 
         assert client.get("/healthz").status_code == 200
 
 
+def test_a_step_that_queued_past_the_deadline_answers_503_and_leaves_the_session_as_it_was() -> None:
+    """The step route takes one worker thread for all its work and checks the deadline first in it."""
+    app = create_app(Settings(request_queue_deadline_s=0.2, requests_per_worker=1, log_level="warning"))
+
+    def hold_the_worker() -> dict[str, str]:
+        time.sleep(0.8)
+        return {"held": "the only worker thread"}
+
+    app.add_api_route("/test-only/hold", hold_the_worker)  # this test's app only, never the shipped one
+    with TestClient(app, raise_server_exceptions=False) as client:
+        session_id = _session(client)
+        before = _readable_state(client, session_id)
+        answers: dict[str, Any] = {}
+        holder = threading.Thread(target=lambda: answers.update(held=client.get("/test-only/hold")))
+        holder.start()
+        time.sleep(0.2)  # the holder has the thread now
+
+        queued = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
+
+        holder.join()
+        assert queued.status_code == 503, queued.text
+        assert queued.json()["error"] == "overloaded"
+        assert int(queued.headers["Retry-After"]) >= 1
+        assert _readable_state(client, session_id) == before
+        stepped = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
+        assert stepped.status_code == 200, stepped.text  # nothing queues now: the same step goes through
+
+
 # ---- 405: Allow names every method of the path (found by tests/app/test_schemathesis.py) -------------
 
 

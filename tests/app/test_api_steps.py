@@ -9,6 +9,7 @@ import json
 import threading
 from typing import Any
 
+import cv2
 import numpy as np
 import pytest
 from app_support import SMALL_CAMERA, oracle_observation
@@ -73,6 +74,73 @@ def test_multipart_and_json_give_the_same_answer(client: TestClient) -> None:
 
     assert by_form.status_code == 200, by_form.text
     assert by_form.json() == by_json.json()
+
+
+MALFORMED_FORMS = [
+    ("multipart/form-data", b"--x\r\n", "no boundary"),
+    ("multipart/form-data; boundary=abc", b"not a form at all", "cannot be read"),
+    (
+        "multipart/form-data; boundary=abc",
+        b"--abc\r\nContent-Type: text/plain\r\n\r\n1\r\n--abc--\r\n",
+        "no ",
+    ),
+    (
+        "multipart/form-data; boundary=abc",
+        b'--abc\r\nContent-Disposition: form-data; name="step"\r\n\r\n0\r\n'
+        b'--abc\r\nContent-Disposition: form-data; name="step"\r\n\r\n1\r\n--abc--\r\n',
+        "step: given twice",
+    ),
+    (
+        "multipart/form-data; boundary=abc",
+        b'--abc\r\nContent-Disposition: form-data; name="held_object"\r\n\r\n\xff\xfe\r\n--abc--\r\n',
+        "not UTF-8",
+    ),
+]
+
+
+@pytest.mark.parametrize(("content_type", "body", "words"), MALFORMED_FORMS)
+def test_a_malformed_form_is_a_400_naming_the_problem_and_changes_nothing(
+    client: TestClient, content_type: str, body: bytes, words: str
+) -> None:
+    session_id = _session(client)
+    before = client.get(f"/v1/sessions/{session_id}").json()
+
+    response = client.post(
+        f"/v1/sessions/{session_id}/step", content=body, headers={"content-type": content_type}
+    )
+
+    assert response.status_code == 400, response.text
+    assert response.json()["error"] == "malformed_form"
+    assert words in response.json()["detail"]
+    assert client.get(f"/v1/sessions/{session_id}").json() == before
+
+
+def test_array_parts_give_the_answer_their_pngs_give(client: TestClient) -> None:
+    """.npy file parts of the same pixels (and float32 depth) answer as the PNG parts do."""
+    png_id, array_id = _session(client), _session(client)
+    body = {**oracle_observation(), "pose": POSE, "step": 0}
+    data, files = _multipart(body)
+    arrays = {name: _as_npy(name, content) for name, (_, content) in files.items()}
+
+    by_png = client.post(f"/v1/sessions/{png_id}/step", data=data, files=files)
+    by_array = client.post(
+        f"/v1/sessions/{array_id}/step", data={**data, "depth_encoding": "float32_m"}, files=arrays
+    )
+
+    assert by_array.status_code == 200, by_array.text
+    assert by_array.json() == by_png.json()
+
+
+def _as_npy(name: str, png: bytes) -> tuple[str, bytes]:
+    """A PNG part as the .npy file of its pixels (RGB order; depth as float32 metres)."""
+    pixels = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
+    if name == "rgb":
+        pixels = cv2.cvtColor(pixels, cv2.COLOR_BGR2RGB)
+    elif name == "depth":
+        pixels = pixels.astype(np.float32) / 1000.0
+    buffer = io.BytesIO()
+    np.save(buffer, pixels, allow_pickle=False)
+    return f"{name}.npy", buffer.getvalue()
 
 
 def test_multipart_with_a_bad_pose_names_the_field(client: TestClient) -> None:
