@@ -48,6 +48,12 @@ observation to its step route, execute the returned action. Every error is `{"er
 """
 
 
+PRELOAD_SHUTDOWN_WAIT_S = 120.0
+"""Seconds a stopping service waits for the model preload to finish: the ONNX export and ONNX Runtime run
+native threads, and a process that exits while they work aborts (std::terminate) instead of stopping. A
+load takes a few seconds; after the first in a process, none."""
+
+
 def create_app(settings: Settings | None = None, *, clock: Callable[[], float] = time.monotonic) -> FastAPI:
     """The service. ``clock`` (seconds, monotonic) drives session idle expiry; tests pass a fake one."""
     settings = settings or Settings()
@@ -75,6 +81,9 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
             _LOG.info("service_stopping", extra={"sessions": len(app.state.store)})
         except redis.RedisError:  # the store went away first: stop all the same
             _LOG.info("service_stopping", extra={"sessions": None})
+        preload = app.state.model_preload
+        if preload is not None and not preload.wait(PRELOAD_SHUTDOWN_WAIT_S):
+            _LOG.warning("model_preload_unfinished", extra={"pending": preload.pending()})
         app.state.store.close()
         app.state.rate_limiter.close()
         app.state.store = None

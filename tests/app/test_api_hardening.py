@@ -4,12 +4,13 @@ leaves the session exactly as it was."""
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import json
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -218,24 +219,36 @@ def test_the_default_history_frame_limit_is_a_real_edh_instance_s() -> None:
 # ---- 7. requests that queued past their deadline ------------------------------------------------------
 
 
-def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() -> None:
-    """One worker thread, held by a slow handler: the next request waits for it past the deadline."""
+def _one_worker_thread_app() -> Any:
+    """An app with one worker thread and a 0.2 s queue deadline, plus a route that holds the thread 0.8 s
+    (this test's app only, never the shipped one)."""
     app = create_app(Settings(request_queue_deadline_s=0.2, requests_per_worker=1, log_level="warning"))
 
     def hold_the_worker() -> dict[str, str]:
         time.sleep(0.8)
         return {"held": "the only worker thread"}
 
-    app.add_api_route("/test-only/hold", hold_the_worker)  # this test's app only, never the shipped one
-    with TestClient(app, raise_server_exceptions=False) as client:
-        answers: dict[str, Any] = {}
-        holder = threading.Thread(target=lambda: answers.update(held=client.get("/test-only/hold")))
-        holder.start()
-        time.sleep(0.2)  # the holder has the thread now
+    app.add_api_route("/test-only/hold", hold_the_worker)
+    return app
 
-        queued = client.post("/v1/sessions", json={"mode": "tfd", "subgoals": "Slice Bread"})
 
-        holder.join()
+@contextlib.contextmanager
+def _worker_held(client: TestClient) -> Iterator[dict[str, Any]]:
+    """The block runs while another request holds the only worker thread; its answer is ``["held"]``."""
+    answers: dict[str, Any] = {}
+    holder = threading.Thread(target=lambda: answers.update(held=client.get("/test-only/hold")))
+    holder.start()
+    time.sleep(0.2)  # the holder has the thread now
+    yield answers
+    holder.join()
+
+
+def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() -> None:
+    """One worker thread, held by a slow handler: the next request waits for it past the deadline."""
+    with TestClient(_one_worker_thread_app(), raise_server_exceptions=False) as client:
+        with _worker_held(client) as answers:
+            queued = client.post("/v1/sessions", json={"mode": "tfd", "subgoals": "Slice Bread"})
+
         assert answers["held"].status_code == 200
         assert queued.status_code == 503, queued.text
         assert queued.json()["error"] == "overloaded"
@@ -247,24 +260,12 @@ def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() 
 
 def test_a_step_that_queued_past_the_deadline_answers_503_and_leaves_the_session_as_it_was() -> None:
     """The step route takes one worker thread for all its work and checks the deadline first in it."""
-    app = create_app(Settings(request_queue_deadline_s=0.2, requests_per_worker=1, log_level="warning"))
-
-    def hold_the_worker() -> dict[str, str]:
-        time.sleep(0.8)
-        return {"held": "the only worker thread"}
-
-    app.add_api_route("/test-only/hold", hold_the_worker)  # this test's app only, never the shipped one
-    with TestClient(app, raise_server_exceptions=False) as client:
+    with TestClient(_one_worker_thread_app(), raise_server_exceptions=False) as client:
         session_id = _session(client)
         before = _readable_state(client, session_id)
-        answers: dict[str, Any] = {}
-        holder = threading.Thread(target=lambda: answers.update(held=client.get("/test-only/hold")))
-        holder.start()
-        time.sleep(0.2)  # the holder has the thread now
+        with _worker_held(client):
+            queued = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
 
-        queued = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
-
-        holder.join()
         assert queued.status_code == 503, queued.text
         assert queued.json()["error"] == "overloaded"
         assert int(queued.headers["Retry-After"]) >= 1

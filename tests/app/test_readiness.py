@@ -11,7 +11,9 @@ from pathlib import Path
 
 from fastapi.testclient import TestClient
 
+from app.main import create_app
 from app.preload import PLANNER
+from app.settings import Settings
 from models.planner import DEFAULT_CHECKPOINT_DIR
 
 LOAD_TIMEOUT_S = 120.0
@@ -73,3 +75,17 @@ def test_a_checkpoint_that_fails_to_load_is_logged_and_does_not_block_readiness(
 def test_without_preload_readiness_does_not_wait_for_models(client: TestClient) -> None:
     assert client.app.state.model_preload is None  # type: ignore[attr-defined]
     assert client.get("/readyz").status_code == 200
+
+
+def test_a_service_stopped_while_it_loads_waits_for_the_load_to_finish(tmp_path: Path) -> None:
+    """The ONNX export and ONNX Runtime run native threads: a process that exits mid-load aborts, so a
+    stopping service lets the load finish first (a real planner load, from a path not loaded yet)."""
+    app = create_app(
+        Settings(log_level="warning", preload_models=True, planner_checkpoint=_fresh_planner_path(tmp_path))
+    )
+    with TestClient(app):
+        preload = app.state.model_preload
+        assert preload.pending()  # stopped at once, while the planner loads
+
+    assert preload.wait(0), f"the service stopped with {preload.pending()} still loading"
+    assert not preload.failures
