@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import binascii
 import io
+import math
 import struct
 from collections.abc import Iterable, Mapping
 from tokenize import TokenError
@@ -50,6 +51,7 @@ MAX_INSTANCE_ID = (1 << 32) - 1
 """Largest instance id a legend may name: instance images are 8-, 16- or 24-bit PNGs (or 32-bit arrays), so
 a larger id can name no pixel, and ids are kept in fixed-width integers (a 67-bit id overflowed)."""
 _NPY_MAGIC = b"\x93NUMPY"
+_INT32_MAX = int(np.iinfo(np.int32).max)
 _NPY_HEADER_READERS = {
     (1, 0): np.lib.format.read_array_header_1_0,
     (2, 0): np.lib.format.read_array_header_2_0,
@@ -218,8 +220,8 @@ def decode_instances(source: ImageInput, camera: Camera, field: str = "segmentat
         _check_size(source, camera, field)
         if source.size and int(source.min()) < 0:
             raise ObservationError(field, "instance ids must be >= 0")
-        if source.dtype.itemsize > 4 and source.size and int(source.max()) > MAX_INSTANCE_ID:
-            raise ObservationError(field, f"instance ids must be <= {MAX_INSTANCE_ID}")
+        if source.size and int(source.max()) > _INT32_MAX:  # ids are kept as int32
+            raise ObservationError(field, f"instance ids must be <= {_INT32_MAX}")
         return source.astype(np.int32, copy=False)
     data = _as_bytes(source, field)
     if data.startswith(_NPY_MAGIC):
@@ -367,7 +369,7 @@ def _npy_array(data: bytes, camera: Camera, field: str) -> np.ndarray:
     if len(shape) < 2:
         raise ObservationError(field, f".npy array must be [H, W, ...], got shape {list(shape)}")
     _check_size((shape[1], shape[0]), camera, field)
-    count = int(np.prod(shape, dtype=np.int64))
+    count = math.prod(shape)  # Python integers: a crafted shape cannot wrap around
     offset = stream.tell()
     if len(data) - offset != count * dtype.itemsize:
         raise ObservationError(

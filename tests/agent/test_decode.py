@@ -136,7 +136,20 @@ NPY_REFUSALS = [
     ("negative ids", "segmentation", lambda f: _npy(-f.instances.astype(np.int32) - 1), ">= 0"),
     ("float ids", "segmentation", lambda f: _npy(f.instances.astype(np.float32)), "integer"),
     ("huge declared shape", "segmentation", lambda f: _npy(f.instances)[:10], ".npy"),
+    (
+        "ids past int32",
+        "segmentation",
+        lambda f: _npy(f.instances.astype(np.uint32) + 2**31),
+        "<= 2147483647",
+    ),
+    ("a third dimension of 10^15", "rgb", lambda f: _npy_declaring((H, W, 10**15)), "declares"),
 ]
+
+
+def _npy_declaring(shape: tuple[int, ...]) -> bytes:
+    """A .npy file of uint8 whose header declares ``shape``, with 64 bytes of pixels."""
+    header = (f"{{'descr': '|u1', 'fortran_order': False, 'shape': {shape}, }}".ljust(118) + "\n").encode()
+    return b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header + b"\0" * 64
 
 
 @pytest.mark.parametrize(("case", "field", "data", "words"), NPY_REFUSALS, ids=[c[0] for c in NPY_REFUSALS])
