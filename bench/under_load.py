@@ -20,7 +20,7 @@ What a lab running several episodes on one machine waits for, measured through t
   the engine the service runs (``bench.perception_speed``'s measurement).
 
 Run: ``.venv/bin/python -m bench.under_load [--episodes 6] [--steps 300]``; needs a Redis (``--redis``,
-default 127.0.0.1:6379); writes ``bench/results/under_load.json``. Takes about 15 minutes.
+default 127.0.0.1:6379); writes ``bench/results/under_load.json``. Takes about 10 minutes.
 """
 
 from __future__ import annotations
