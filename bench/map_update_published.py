@@ -194,12 +194,14 @@ def _import_film(root: Path) -> types.SimpleNamespace:
         spec.loader.exec_module(module)
     finally:
         sys.argv = argv
-    from envs.utils.fmm_planner import FMMPlanner
+    # Their modules are imported by name from the checkout on sys.path: FILM and HLSM are no dependency of
+    # this project (nothing installs them), so no import statement names them.
+    fmm_planner = importlib.import_module("envs.utils.fmm_planner")
 
     for name in ("utils.model", "envs.utils.depth_utils", "envs.utils.fmm_planner"):
         origin = Path(sys.modules[name].__file__ or "")
         assert origin.is_relative_to(root), f"{name} came from {origin}, not FILM's {root}"
-    return types.SimpleNamespace(Semantic_Mapping=module.Semantic_Mapping, FMMPlanner=FMMPlanner)
+    return types.SimpleNamespace(Semantic_Mapping=module.Semantic_Mapping, FMMPlanner=fmm_planner.FMMPlanner)
 
 
 def _import_hlsm(root: Path) -> types.SimpleNamespace:
@@ -209,19 +211,19 @@ def _import_hlsm(root: Path) -> types.SimpleNamespace:
         os.environ.setdefault(name, workspace)
     _bare_package("lgp.models.alfred.hlsm", root / "lgp" / "models" / "alfred" / "hlsm")  # __init__: models
     _stand_in("moviepy.editor")
-    from lgp.env.alfred import segmentation_definitions
-    from lgp.env.alfred.alfred_observation import AlfredObservation
-    from lgp.models.alfred.handcoded_skills.go_to import GoToSkill
-    from lgp.models.alfred.hlsm.hlsm_observation_function import HlsmObservationFunction
-    from lgp.parameters import Hyperparams
+    segmentation_definitions = importlib.import_module("lgp.env.alfred.segmentation_definitions")
+    observation = importlib.import_module("lgp.env.alfred.alfred_observation")
+    go_to = importlib.import_module("lgp.models.alfred.handcoded_skills.go_to")
+    observation_function = importlib.import_module("lgp.models.alfred.hlsm.hlsm_observation_function")
+    parameters = importlib.import_module("lgp.parameters")
 
     origin = Path(sys.modules["lgp"].__file__ or next(iter(sys.modules["lgp"].__path__)))
     assert origin.is_relative_to(root), f"lgp came from {origin}, not HLSM's {root}"
     return types.SimpleNamespace(
-        AlfredObservation=AlfredObservation,
-        HlsmObservationFunction=HlsmObservationFunction,
-        GoToSkill=GoToSkill,
-        Hyperparams=Hyperparams,
+        AlfredObservation=observation.AlfredObservation,
+        HlsmObservationFunction=observation_function.HlsmObservationFunction,
+        GoToSkill=go_to.GoToSkill,
+        Hyperparams=parameters.Hyperparams,
         segdef=segmentation_definitions,
     )
 
