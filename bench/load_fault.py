@@ -28,11 +28,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import os
-import platform
 import signal
-import sys
 import threading
 import time
 import uuid
@@ -48,8 +45,8 @@ import redis
 from prometheus_client.parser import text_string_to_metric_families
 from tqdm import tqdm
 
+from bench.provenance import provenance, write_results
 from bench.step_latency import episodes as generated_episodes
-from bench.tatc_commander import current_commit
 from harness.client import RETRYABLE_CODES, AgentClient
 from harness.episodes.model import Episode
 from harness.runner import RunnerOptions, run_episode
@@ -473,17 +470,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ratio = runs["two_workers"]["steps_per_s"] / runs["one_worker"]["steps_per_s"]
     fault = runs["two_workers_one_killed_twice"]
     report = {
-        "bench": "load_fault",
-        "command": " ".join(
-            [sys.executable.rsplit("/", 1)[-1], "-m", "bench.load_fault", *(argv or sys.argv[1:])]
-        ),
-        "commit": current_commit(),
-        "machine": {
-            "cpu": platform.processor() or platform.machine(),
-            "cores": len(os.sched_getaffinity(0)),
-            "python": platform.python_version(),
-        },
-        "threads_per_worker": os.environ.get("JARVIS_THREADS_PER_WORKER", "1 (the service's default)"),
+        **provenance("load_fault", argv),
         "store": "redis",
         "frames": "300x300 hfov 90: RGB, 16-bit depth and instance PNGs in JSON (the harness client's "
         "default)",
@@ -504,10 +491,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         },
         "wall_s": round(time.time() - started, 1),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=1) + "\n")
-    print(json.dumps(report["bar"], indent=1))
-    print(f"wrote {args.out}")
+    write_results(args.out, report, "bar")
     return 0
 
 

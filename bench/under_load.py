@@ -28,8 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -41,8 +39,8 @@ import redis
 from tqdm import tqdm
 
 from bench.load_fault import RecordedEpisode, distribution, measured_run, record_episode
+from bench.provenance import provenance, write_results
 from bench.step_latency import episodes, measure_concurrency, server_step_ms
-from bench.tatc_commander import current_commit
 from harness.episodes.model import Episode
 from harness.runner import RunnerOptions
 from harness.service import running_service
@@ -219,17 +217,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "two_over_one_worker_steps_per_s": ratio(two_workers["steps_per_s"], one_worker["steps_per_s"]),
     }
     report = {
-        "bench": "under_load",
-        "command": " ".join(
-            ["python", "-m", "bench.under_load", *(argv if argv is not None else sys.argv[1:])]
-        ),
-        "commit": current_commit(),
-        "machine": {
-            "cpu": platform.processor() or platform.machine(),
-            "cores": len(os.sched_getaffinity(0)),
-            "python": platform.python_version(),
-        },
-        "threads_per_worker": os.environ.get("JARVIS_THREADS_PER_WORKER", "1 (the service's default)"),
+        **provenance("under_load", argv),
         "frames": "300x300 hfov 90 oracle perception; arrays (.npy RGB and ids, float32 depth) in multipart "
         "unless said otherwise",
         "bars": {
@@ -262,10 +250,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "learned_perception": perception,
         "wall_s": round(time.time() - started, 1),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=1) + "\n")
-    print(json.dumps(report["bars"], indent=1))
-    print(f"wrote {args.out}")
+    write_results(args.out, report, "bars")
     return 0
 
 
