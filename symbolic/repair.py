@@ -61,7 +61,9 @@ fetching a mug still means coffee in a mug (TEACh's Coffee task)."""
 
 MAX_FIXES_PER_STEP = 32
 MAX_PASSES = 8
-"""Bounds that only a rule bug can reach; exceeding them raises instead of looping."""
+"""Bounds that only a rule bug can reach; exceeding them raises instead of looping. A fix that only drops the
+current subgoal shortens the plan, so it cannot loop and is not counted: forty "Pickup Apple" in a row are
+thirty-nine dropped repeats, not a rule that never settles."""
 
 A = SubgoalAction
 
@@ -380,19 +382,23 @@ def _repair_pass(
     last_taken_from: str | None = None
     index = 0
     while True:
-        for _ in range(MAX_FIXES_PER_STEP):
+        growing_fixes = 0
+        while True:
             ctx = RuleContext(plan, index, belief, ontology, frozenset(opened), last, last_taken_from)
             fired = _first_fix(ctx)
             if fired is None:
                 break
             name, fix = fired
+            if fix.inserted or not fix.remove_current:
+                growing_fixes += 1
+                if growing_fixes > MAX_FIXES_PER_STEP:
+                    rules = [e.rule for e in log[-5:]]
+                    raise RuntimeError(f"repair did not settle at position {index}: {rules}")
             removed = (plan[index],) if fix.remove_current else ()
             plan[index : index + len(removed)] = fix.inserted
             opened |= {g.obj for g in fix.inserted if g.action is A.OPEN}
             opened -= {g.obj for g in fix.inserted if g.action is A.CLOSE}
             log.append(RepairEvent(name, index, fix.reason, removed, fix.inserted))
-        else:
-            raise RuntimeError(f"repair did not settle at position {index}: {[e.rule for e in log[-5:]]}")
         if index >= len(plan):
             return plan, log
         current = plan[index]

@@ -37,6 +37,13 @@ def test_acceptance_slice_bread_fetches_a_knife_first(onto: Ontology) -> None:
     assert "knife" in first.reason
 
 
+def test_a_long_run_of_repeated_pickups_settles_to_one(onto: Ontology) -> None:
+    """Seventy "Pickup Apple" (a client's loop gone wrong) are one pickup and 69 logged drops, not a 500."""
+    result = repair(onto, ", ".join(["Pickup Apple"] * 70))
+    assert format_subgoals(result.plan) == "Navigate Apple, Pickup Apple"
+    assert fired(result).count("pickup-needs-free-hands") == 69
+
+
 def test_impossible_actions_are_removed(onto: Ontology) -> None:
     result = repair(onto, "Slice Mug, Open Apple, Pickup CounterTop, ToggleOn Bread, Navigate Floor")
     assert result.plan == []
