@@ -86,6 +86,23 @@ def pixel_points(
     return local @ camera_to_world(pose).T + camera_position(camera, pose)
 
 
+COUNTING_MAX_ID = 1 << 16
+"""Ids in [0, this) are grouped by counting (a table of this many slots at most), others by sorting."""
+
+
+def group_ids(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.unique(ids, return_inverse=True, return_counts=True)`` of integer ids [N]: the distinct ids
+    ascending, each element's index among them, and their counts; by counting rather than sorting when the
+    ids are small, as a frame's instance ids are (a quarter of the time)."""
+    if len(ids) == 0 or int(ids.min()) < 0 or int(ids.max()) >= COUNTING_MAX_ID:
+        return np.unique(ids, return_inverse=True, return_counts=True)
+    per_id = np.bincount(ids)
+    found = np.flatnonzero(per_id)
+    slot = np.zeros(len(per_id), dtype=np.intp)
+    slot[found] = np.arange(len(found))
+    return found.astype(ids.dtype), slot[ids], per_id[found]
+
+
 def pixel_distances(depth: np.ndarray, camera: Camera) -> np.ndarray:
     """float32 [H, W]: Euclidean metres from the camera to each pixel's surface (0 = no reading)."""
     return depth * pixel_ray_lengths(camera)
@@ -150,10 +167,10 @@ def visible_instances(
     if not wanted.any():
         return []
     rows, cols = np.nonzero(wanted)  # [N] each
-    ids = instances[rows, cols]  # [N]
-    dist = distances[rows, cols]  # [N]
+    ids = instances[wanted]  # [N], row-major as rows and cols
+    dist = distances[wanted]  # [N]
     # All instances in one pass (a row of cabinets shows a dozen): per-instance sums by bincount.
-    found_ids, inverse, pixels = np.unique(ids, return_inverse=True, return_counts=True)  # [I], [N], [I]
+    found_ids, inverse, pixels = group_ids(ids)  # [I], [N], [I]
     near = dist <= config.reach_m  # [N]
     reachable = np.bincount(inverse, weights=near, minlength=len(found_ids)).astype(np.int64)  # [I]
     pick = near | (reachable < config.min_pixels)[inverse]  # [N]: the reachable pixels, else all of them
@@ -161,8 +178,8 @@ def visible_instances(
     points = pixel_points(rows, cols, depth, camera, pose)  # [N, 3]
     sums = [np.bincount(inverse, weights=points[:, k] * pick, minlength=len(found_ids)) for k in range(3)]
     centres = np.stack(sums, axis=1) / picked[:, None]  # [I, 3]
-    order = np.argsort(inverse, kind="stable")
-    nearest = np.minimum.reduceat(dist[order], np.concatenate(([0], np.cumsum(pixels)[:-1])))  # [I]
+    nearest = np.full(len(found_ids), np.inf, dtype=dist.dtype)
+    np.minimum.at(nearest, inverse, dist)  # [I]
     found = [
         VisibleInstance(
             instance_id=int(found_ids[k]),

@@ -9,6 +9,7 @@ the executor can ask freely within one step.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -61,7 +62,7 @@ class MapCluster:
     """One connected region of a type's map cells: a candidate instance to walk to (adjacent instances of
     one type, such as a row of cabinets, share a cluster)."""
 
-    cells: np.ndarray  # bool [X, Z]
+    shape: tuple[int, int]  # the map's (X, Z)
     ii: np.ndarray  # int [N] map indices of its cells along x
     jj: np.ndarray  # int [N] along z
     xs: np.ndarray  # float [N] world x of its cell centres, metres
@@ -71,6 +72,13 @@ class MapCluster:
     nearest_m: float  # metres from the agent to its nearest cell
     top_m: float  # metres, upper edge of the highest height bin holding the type
     top_low_m: float  # metres, lower edge of that bin: the lowest its top can be (reach is judged on it)
+
+    @functools.cached_property
+    def cells(self) -> np.ndarray:
+        """bool [X, Z]: its cells as a map layer (made when asked: most clusters are only ranked)."""
+        cells = np.zeros(self.shape, dtype=bool)
+        cells[self.ii, self.jj] = True
+        return cells
 
     @property
     def aim_m(self) -> float:
@@ -112,12 +120,10 @@ class MapCluster:
 
     def _part(self, near: np.ndarray) -> MapCluster:
         """The cluster cut down to the cells where ``near`` (bool [N]) holds."""
-        cells = np.zeros_like(self.cells)
-        cells[self.ii[near], self.jj[near]] = True
         xs, zs = self.xs[near], self.zs[near]
         nearest = self.nearest_m  # unchanged where the part holds the nearest cell; a bound otherwise
         return MapCluster(
-            cells,
+            self.shape,
             self.ii[near],
             self.jj[near],
             xs,
@@ -271,17 +277,33 @@ class SessionMapView:
             ai, aj = frame.world_to_cell(self.pose.x, self.pose.z)
             class_id = self.map.classes.id_of(object_type)
             lows, tops = self.bin_edges()
-            for box_ii, box_jj in _label_cells(labels, count):
-                ii, jj = box_ii + i0, box_jj + j0
-                member = np.zeros(cells.shape, dtype=bool)
-                member[ii, jj] = True
-                xs = frame.origin_x + (ii + 0.5) * frame.cell_m
-                zs = frame.origin_z + (jj + 0.5) * frame.cell_m
-                nearest = float(np.sqrt((ii - ai) ** 2 + (jj - aj) ** 2).min()) * frame.cell_m
-                bins = np.nonzero((self.map.voxels[ii, jj] == class_id).any(axis=0))[0]
-                top, low = float(tops[bins.max()]), float(lows[bins.max()])
-                centre_x, centre_z = float(xs.mean()), float(zs.mean())
-                found.append(MapCluster(member, ii, jj, xs, zs, centre_x, centre_z, nearest, top, low))
+            # Per-cell values for every cluster at once; per cluster only slices of them.
+            box_ii, box_jj, starts = _label_cells(labels, count)
+            ii, jj = box_ii + i0, box_jj + j0  # [N] every labelled cell, grouped by label
+            xs = frame.origin_x + (ii + 0.5) * frame.cell_m  # [N]
+            zs = frame.origin_z + (jj + 0.5) * frame.cell_m
+            steps = np.sqrt((ii - ai) ** 2 + (jj - aj) ** 2)  # [N] cells from the agent
+            holds = self.map.voxels[ii, jj] == class_id  # [N, B]
+            highest = holds.shape[1] - 1 - np.argmax(holds[:, ::-1], axis=1)  # [N] its highest bin there
+            top_bin = np.where(holds.any(axis=1), highest, -1)  # [N] -1: no bin of this cell holds it
+            nearest = np.minimum.reduceat(steps, starts[:-1]) * frame.cell_m  # [C]
+            top = np.maximum.reduceat(top_bin, starts[:-1])  # [C]
+            for k, (a, b) in enumerate(zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True)):
+                cx, cz = xs[a:b], zs[a:b]
+                found.append(
+                    MapCluster(
+                        cells.shape,
+                        ii[a:b],
+                        jj[a:b],
+                        cx,
+                        cz,
+                        float(cx.mean()),
+                        float(cz.mean()),
+                        float(nearest[k]),
+                        float(tops[top[k]]),
+                        float(lows[top[k]]),
+                    )
+                )
         found.sort(key=lambda c: (c.nearest_m, int(c.ii[0]), int(c.jj[0])))
         self._clusters[object_type] = found
         return found
@@ -354,7 +376,7 @@ class SessionMapView:
         xs, zs = xs_all[ii], zs_all[jj]
         i, j = frame.world_to_cell(self.pose.x, self.pose.z)
         nearest = float(np.sqrt((ii - i) ** 2 + (jj - j) ** 2).min()) * frame.cell_m
-        return MapCluster(cells, ii, jj, xs, zs, point[0], point[2], nearest, point[1] + 0.1, point[1])
+        return MapCluster(cells.shape, ii, jj, xs, zs, point[0], point[2], nearest, point[1] + 0.1, point[1])
 
     def bin_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """float [B] lower and upper edges of each height bin, metres (the open ends get 0 m and +0.2 m);
@@ -428,12 +450,13 @@ class SessionMapView:
         return self._explore_attempts.get(obj_type, 0)
 
 
-def _label_cells(labels: np.ndarray, count: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(ii, jj) of each label 1..count-1 of a connected-components image, cells in row-major order as
-    ``np.nonzero(labels == label)`` gives them, from one pass over the image instead of one per label (a
+def _label_cells(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ii, jj) of the cells of labels 1..count-1 of a connected-components image, grouped by label and in
+    row-major order within a label (as ``np.nonzero(labels == label)`` gives them), and where each label's
+    run starts ([count], the last entry the total): one pass over the image instead of one per label (a
     row of cabinets maps as dozens of components)."""
     ii, jj = np.nonzero(labels)
     of = labels[ii, jj]
     order = np.argsort(of, kind="stable")  # stable: row-major order kept within a label
-    ends = np.searchsorted(of[order], np.arange(1, count + 1))
-    return [(ii[order[a:b]], jj[order[a:b]]) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+    starts = np.searchsorted(of[order], np.arange(1, count + 1))
+    return ii[order], jj[order], starts

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.executor.clicks import pixel_points
+from agent.executor.clicks import group_ids
 from agent.executor.state import ContainerVisit, Point, Sighting
-from agent.geometry import Camera, Pose, camera_position
+from agent.geometry import Camera, Pose, camera_position, camera_to_world, pixel_ray_slopes
 
 SAME_ID_M = 0.6
 """Metres, horizontally: a sighting with the same segmentation id this close is the same instance (its
@@ -94,19 +94,16 @@ def observe(
         return []
     r0, r1 = int(rows_in.min()), min(int(rows_in.max()) + 2, wanted.shape[0])
     c0, c1 = int(cols_in.min()), min(int(cols_in.max()) + 2, wanted.shape[1])
-    rows, cols = np.mgrid[r0:r1, c0:c1] * S  # [h, w] each, pixel indices
-    h, w = rows.shape
-    points = pixel_points(rows.ravel(), cols.ravel(), depth, camera, pose).reshape(h, w, 3)
+    rows, cols = slice(r0 * S, r1 * S, S), slice(c0 * S, c1 * S, S)  # the samples' pixels: no gathers
     ids = instances[rows, cols]  # [h, w]
     ok = wanted[r0:r1, c0:c1]  # [h, w]
-    found, inverse, counts = np.unique(ids[ok], return_inverse=True, return_counts=True)
-    picked = points[ok]  # [n, 3]
-    sums = np.stack([np.bincount(inverse, weights=picked[:, k]) for k in range(3)], axis=1)  # [I, 3]
+    px, py, pz = _sample_points(depth[rows, cols], camera, pose, rows, cols)
+    found, inverse, counts = group_ids(ids[ok])
+    sums = np.stack([np.bincount(inverse, weights=p[ok]) for p in (px, py, pz)], axis=1)  # [I, 3]
     classes = np.zeros(len(found), dtype=np.int64)
     classes[inverse] = class_ids[rows, cols][ok]
 
     # One [h, w] array per coordinate: reductions over a 3-long last axis cost more than the arithmetic.
-    px, py, pz = np.ascontiguousarray(points.transpose(2, 0, 1))
     rx, ry, rz = px[:-1, 1:] - px[:-1, :-1], py[:-1, 1:] - py[:-1, :-1], pz[:-1, 1:] - pz[:-1, :-1]  # right
     dx, dy, dz = px[1:, :-1] - px[:-1, :-1], py[1:, :-1] - py[:-1, :-1], pz[1:, :-1] - pz[:-1, :-1]  # down
     nx, ny, nz = dy * rz - dz * ry, dz * rx - dx * rz, dx * ry - dy * rx  # down x right, [h-1, w-1]
@@ -140,6 +137,19 @@ def observe(
         )
         for k in range(len(found))
     ]
+
+
+def _sample_points(
+    depth: np.ndarray, camera: Camera, pose: Pose, rows: slice, cols: slice
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """float64 [h, w] world x, y, z of the pixels ``depth`` holds (``full[rows, cols]``): ``pixel_points``
+    for a grid of samples, from the separable ray table rather than gathered [N, 3] rays."""
+    x_over_z, y_over_z = pixel_ray_slopes(camera)
+    across, down = x_over_z[cols][None, :] * depth, y_over_z[rows][:, None] * depth  # float32, camera frame
+    local = np.stack([across, down, depth], axis=-1).reshape(-1, 3)  # [h * w, 3]
+    world = local @ camera_to_world(pose).T + camera_position(camera, pose)  # [h * w, 3], as pixel_points
+    x, y, z = world.T.reshape(3, *depth.shape)
+    return x, y, z
 
 
 def facing(sighting: Sighting) -> float | None:
