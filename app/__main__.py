@@ -82,6 +82,9 @@ def main() -> int:
         port=settings.port,
         log_config=None,
         access_log=False,
+        # Live pages' event streams never end by themselves: without a limit, one open tab kept a stopping
+        # service waiting for ever (app/api/routes/live.py).
+        timeout_graceful_shutdown=settings.shutdown_grace_s,
     )
     return 0
 

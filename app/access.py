@@ -12,20 +12,25 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 
 import redis
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from app.api_docs import DOCS_OPEN_PATHS
 from app.errors import NOT_READY, RATE_LIMITED, STORE_UNAVAILABLE, UNAUTHORIZED
 from app.keys import KeyRing, presented_key
 from app.ownership import Caller
 from app.rate_limit import RateLimiter, retry_after_header
 from app.settings import Settings
 
-OPEN_PATHS: frozenset[str] = frozenset(
-    {"/healthz", "/readyz", "/ping", "/test", "/docs", "/docs/oauth2-redirect", "/redoc", "/openapi.json"}
+OPEN_PATHS: frozenset[str] = (
+    frozenset({"/healthz", "/readyz", "/ping", "/test", "/openapi.json"}) | DOCS_OPEN_PATHS
 )
 """Routes that answer without a key: probes, TEACh's connection checks, and the API's description."""
+OPEN_PAGES = re.compile(r"/v1/view(/live\.(js|css))?|/v1/sessions/[^/]+/view")
+"""The live pages and their script and style: static files with no session data in them; the script sends
+the key with its requests (``app.api.routes.live``)."""
 CALLER_STATE = "caller"
 """Key of the ``Caller`` in the ASGI scope's state."""
 
@@ -40,7 +45,8 @@ class KeyCheck:
         self.settings = settings
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or scope.get("path", "") in OPEN_PATHS:
+        path = scope.get("path", "")
+        if scope["type"] != "http" or path in OPEN_PATHS or OPEN_PAGES.fullmatch(path):
             await self.app(scope, receive, send)
             return
         state = scope["app"].state

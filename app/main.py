@@ -20,7 +20,8 @@ from fastapi import Depends, FastAPI
 
 from agent.planning import make_planner
 from app.access import KeyCheck
-from app.api.routes import health, metrics, sessions, steps, teach
+from app.api.routes import health, live, metrics, sessions, steps, teach
+from app.api_docs import install_api_docs
 from app.body_limit import BodySizeLimit
 from app.deadline import refuse_stale_request
 from app.error_handlers import install_error_handlers
@@ -84,6 +85,7 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         preload = app.state.model_preload
         if preload is not None and not preload.wait(PRELOAD_SHUTDOWN_WAIT_S):
             _LOG.warning("model_preload_unfinished", extra={"pending": preload.pending()})
+        await app.state.store.close_readers()
         app.state.store.close()
         app.state.rate_limiter.close()
         app.state.store = None
@@ -95,6 +97,8 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
         version=service_version(),
         description=DESCRIPTION,
         lifespan=lifespan,
+        docs_url=None,  # FastAPI's pages load Swagger UI and ReDoc from a CDN; app.api_docs serves its own
+        redoc_url=None,
     )
     app.state.settings = settings
     app.state.model_preload = None
@@ -109,6 +113,8 @@ def create_app(settings: Settings | None = None, *, clock: Callable[[], float] =
     app.include_router(sessions.router, dependencies=stale)
     app.include_router(steps.router)
     app.include_router(teach.router, dependencies=stale)
+    install_api_docs(app)
+    app.include_router(live.router)
     install_error_handlers(app)
     # The last middleware added runs first: log every request, including bodies refused for size.
     app.add_middleware(

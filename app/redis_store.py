@@ -13,6 +13,13 @@ worker killed at any moment loses nothing a client was told.
 
 Capacity, per-owner caps and idle expiry are sorted sets of session ids scored by expiry time (Redis's
 clock, so hosts need not agree on time); the session's hash expires with the same TTL.
+
+Readers never take the lease: the same script that stores a change's snapshot stores its published view
+(``app.live_view``) in the session's hash (``view``, ``vrev``, and ``frame`` when a step brought one) and
+the new trace lines in a sorted set by step, so any worker serves ``GET /v1/sessions/{id}``, its trace, its
+map and the live page from the last completed change while another worker steps the session. Those reads
+go through an asyncio client (a live page's stream polls ``vrev`` without a worker thread), and each worker
+keeps the views it decoded by revision, so the map of one revision is drawn once per worker.
 """
 
 from __future__ import annotations
@@ -28,10 +35,13 @@ from typing import Any, Literal
 
 import orjson
 import redis
+import redis.asyncio
 
 from agent.perception import NetworkPaths
 from agent.planning import Planner
 from agent.session import AgentSession
+from agent.trace import DEFAULT_CAPACITY as TRACE_CAPACITY
+from app.live_view import SessionView, frame_to_bytes
 from app.store import SessionBusy, SessionNotFound, StoredSession, StoreFull
 from symbolic.ontology import Ontology
 
@@ -40,12 +50,15 @@ OPEN_OWNER = "~"
 LEASE_POLL_S = (0.002, 0.005, 0.01, 0.02)
 """Waits between tries for a busy lease (then the last one repeats): short, as most steps take ~20 ms."""
 
+VIEW_CACHE_SIZE = 64
+"""Decoded views a worker keeps (by session and revision) for its readers."""
+
 SnapshotObserver = Callable[[Literal["save", "load"], float, int], None]
 """Called with ("save" | "load", seconds, bytes) for each snapshot written or read (metrics)."""
 
 # KEYS: session hash, live zset, owner zset. ARGV: id, owner, snapshot, meta, ttl ms, cap, owner cap
-# (0: none), done flag. Returns {1} when stored, {-1, ms} store full, {-2, ms} owner full (ms: until a slot
-# frees), {-3} id taken.
+# (0: none), done flag, view, view revision. Returns {1} when stored, {-1, ms} store full, {-2, ms} owner
+# full (ms: until a slot frees), {-3} id taken.
 _CREATE = """
 local t = redis.call('TIME')
 local now = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
@@ -62,15 +75,16 @@ if owner_cap > 0 and redis.call('ZCARD', KEYS[3]) >= owner_cap then return {-2, 
 if redis.call('EXISTS', KEYS[1]) == 1 then return {-3} end
 local ttl = tonumber(ARGV[5])
 redis.call('HSET', KEYS[1], 'snap', ARGV[3], 'meta', ARGV[4], 'ver', 1, 'owner', ARGV[2],
-           'created', now, 'done', ARGV[8])
+           'created', now, 'done', ARGV[8], 'view', ARGV[9], 'vrev', ARGV[10])
 redis.call('PEXPIRE', KEYS[1], ttl)
 redis.call('ZADD', KEYS[2], now + ttl, ARGV[1])
 redis.call('ZADD', KEYS[3], now + ttl, ARGV[1])
 return {1}
 """
 
-# KEYS: session hash, lease, live zset, owner zset. ARGV: token, id, ttl ms, write (1|0), snapshot, meta,
-# done flag.
+# KEYS: session hash, lease, live zset, owner zset, trace zset. ARGV: token, id, ttl ms, write (1|0),
+# snapshot, meta, done flag, view, view revision, frame ('' keeps the last), trace capacity, then step and
+# line pairs of the trace's tail (adding a line already there changes nothing).
 # Returns the stored version, -1 when the lease is no longer this request's, -2 when the session is gone.
 _RELEASE = """
 if redis.call('GET', KEYS[2]) ~= ARGV[1] then return -1 end
@@ -82,14 +96,37 @@ local ttl = tonumber(ARGV[3])
 local version
 if ARGV[4] == '1' then
   version = redis.call('HINCRBY', KEYS[1], 'ver', 1)
-  redis.call('HSET', KEYS[1], 'snap', ARGV[5], 'meta', ARGV[6], 'done', ARGV[7])
+  redis.call('HSET', KEYS[1], 'snap', ARGV[5], 'meta', ARGV[6], 'done', ARGV[7], 'view', ARGV[8],
+             'vrev', ARGV[9])
+  if ARGV[10] ~= '' then redis.call('HSET', KEYS[1], 'frame', ARGV[10]) end
+  for i = 12, #ARGV, 2 do redis.call('ZADD', KEYS[5], tonumber(ARGV[i]), ARGV[i + 1]) end
+  redis.call('ZREMRANGEBYRANK', KEYS[5], 0, -(tonumber(ARGV[11]) + 1))
 else
   version = tonumber(redis.call('HGET', KEYS[1], 'ver'))
 end
 redis.call('PEXPIRE', KEYS[1], ttl)
+redis.call('PEXPIRE', KEYS[5], ttl)
 redis.call('ZADD', KEYS[3], 'XX', now + ttl, ARGV[2])
 redis.call('ZADD', KEYS[4], 'XX', now + ttl, ARGV[2])
 return version
+"""
+
+# KEYS: session hash, trace zset, live zset, owner zset. ARGV: owner ('' when open), ttl ms, touch (1|0),
+# session id.
+# Returns {view revision, view, frame} of the owner's session, after restarting its TTL when touched; {}
+# when there is no such session of this owner.
+_READ_VIEW = """
+if redis.call('HGET', KEYS[1], 'owner') ~= ARGV[1] then return {} end
+if ARGV[3] == '1' then
+  local t = redis.call('TIME')
+  local now = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
+  local ttl = tonumber(ARGV[2])
+  redis.call('PEXPIRE', KEYS[1], ttl)
+  redis.call('PEXPIRE', KEYS[2], ttl)
+  redis.call('ZADD', KEYS[3], 'XX', now + ttl, ARGV[4])
+  redis.call('ZADD', KEYS[4], 'XX', now + ttl, ARGV[4])
+end
+return redis.call('HMGET', KEYS[1], 'vrev', 'view', 'frame')
 """
 
 # KEYS: live zset (or an owner zset). Drops expired ids, returns the live ones.
@@ -218,6 +255,9 @@ class RedisSessionStore:
         self._on_snapshot = on_snapshot
         self._redis = redis.Redis.from_url(url, socket_timeout=10.0, health_check_interval=30)
         self._redis.ping()  # fail at start-up, naming the URL, not on the first request
+        self._readers = redis.asyncio.Redis.from_url(url, socket_timeout=10.0, health_check_interval=30)
+        self._read_view = self._readers.register_script(_READ_VIEW)
+        self._views: OrderedDict[tuple[str, str], SessionView] = OrderedDict()  # event loop's only
         self._create = self._redis.register_script(_CREATE)
         self._release = self._redis.register_script(_RELEASE)
         self._live_ids = self._redis.register_script(_LIVE_IDS)
@@ -230,6 +270,9 @@ class RedisSessionStore:
     # ----- keys ---------------------------------------------------------------------------------------
     def _session_key(self, session_id: str) -> str:
         return f"{self.prefix}:s:{session_id}"
+
+    def _trace_key(self, session_id: str) -> str:
+        return f"{self.prefix}:trace:{session_id}"
 
     def _lease_key(self, session_id: str) -> str:
         return f"{self.prefix}:lease:{session_id}"
@@ -272,6 +315,7 @@ class RedisSessionStore:
     ) -> None:
         stored = StoredSession(session, owner, dict(meta or {}))
         snapshot, meta_json = self._encode(stored)
+        view = stored.publish(None)
         result = self._create(
             keys=[self._session_key(session.session_id), self._live_key(), self._owner_key(owner)],
             args=[
@@ -283,6 +327,8 @@ class RedisSessionStore:
                 self.max_sessions,
                 owner_cap or 0,
                 int(session.done),
+                view.to_bytes(),
+                view.revision,
             ],
         )
         status = int(result[0])
@@ -312,6 +358,7 @@ class RedisSessionStore:
         try:
             stored, version = self._current(session_id, owner)
             stored.changed = True
+            stored.new_frame = None
             try:
                 yield stored
             except BaseException:
@@ -320,9 +367,14 @@ class RedisSessionStore:
             args: list[bytes | str | int]
             if write and stored.changed:
                 snapshot, meta_json = self._encode(stored)
+                new_frame = stored.new_frame is not None
+                view = stored.publish(None)
+                frame = frame_to_bytes(view.frame) if new_frame and view.frame is not None else b""
+                tail = [item for line in view.trace[-2:] for item in (orjson.loads(line)["step"], line)]
                 args = [token, session_id, self.ttl_ms, 1, snapshot, meta_json, int(stored.session.done)]
+                args += [view.to_bytes(), view.revision, frame, TRACE_CAPACITY, *tail]
             else:
-                args = [token, session_id, self.ttl_ms, 0, b"", b"", 0]
+                args = [token, session_id, self.ttl_ms, 0, b"", b"", 0, b"", b"", b"", TRACE_CAPACITY]
             try:
                 result = int(self._release(keys=self._release_keys(session_id, owner, key), args=args))
             except redis.RedisError:
@@ -343,18 +395,62 @@ class RedisSessionStore:
                 self._drop_lease(session_id, token)
 
     def _release_keys(self, session_id: str, owner: str | None, key: str) -> list[str]:
-        return [key, self._lease_key(session_id), self._live_key(), self._owner_key(owner)]
+        return [
+            key,
+            self._lease_key(session_id),
+            self._live_key(),
+            self._owner_key(owner),
+            self._trace_key(session_id),
+        ]
 
     def delete(self, session_id: str, owner: str | None) -> None:
         self._check_owner(session_id, owner)
         with self._redis.pipeline(transaction=True) as pipe:
             pipe.delete(self._session_key(session_id))
+            pipe.delete(self._trace_key(session_id))
             pipe.zrem(self._live_key(), session_id)
             pipe.zrem(self._owner_key(owner), session_id)
             deleted = pipe.execute()[0]
         self._forget(session_id)
         if not deleted:
             raise SessionNotFound(session_id)
+
+    async def view(self, session_id: str, owner: str | None, *, touch: bool) -> SessionView:
+        keys = [
+            self._session_key(session_id),
+            self._trace_key(session_id),
+            self._live_key(),
+            self._owner_key(owner),
+        ]
+        found = await self._read_view(keys=keys, args=[owner or "", self.ttl_ms, int(touch), session_id])
+        if not found or found[0] is None or found[1] is None:
+            raise SessionNotFound(session_id)
+        revision, data, frame = _text(found[0]), found[1], found[2]
+        cached = self._views.get((session_id, revision))
+        if cached is not None:
+            self._views.move_to_end((session_id, revision))
+            return cached
+        view = SessionView.from_bytes(data, frame)
+        if view is None:
+            raise SessionNotFound(session_id)
+        self._views[(session_id, revision)] = view
+        while len(self._views) > VIEW_CACHE_SIZE:
+            self._views.popitem(last=False)
+        return view
+
+    async def view_revision(self, session_id: str, owner: str | None) -> str:
+        stored_owner, revision = await self._readers.hmget(self._session_key(session_id), ["owner", "vrev"])
+        if stored_owner is None or revision is None or _text(stored_owner) != (owner or ""):
+            raise SessionNotFound(session_id)
+        return _text(revision)
+
+    async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
+        await self.view(session_id, owner, touch=True)  # the owner's, and still live
+        lines = await self._readers.zrangebyscore(self._trace_key(session_id), since or 0, "+inf")
+        return [_text(line) for line in lines]
+
+    async def close_readers(self) -> None:
+        await self._readers.aclose()
 
     def ids(self, owner: str | None) -> list[str]:
         zset = self._live_key() if owner is None else self._owner_key(owner)

@@ -15,6 +15,15 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, JsonValue, mo
 from agent.executor.config import DEFAULT_EXPLORER, ExplorerName
 from agent.planning import PlanSource, Speaker
 from agent.session import Mode, NavigatorName, PerceptionName, PlannerName
+from app.doc_examples import (
+    EXAMPLE_DEPTH,
+    EXAMPLE_LEGEND,
+    EXAMPLE_PLAN,
+    EXAMPLE_RGB,
+    EXAMPLE_SEGMENTATION,
+    EXAMPLE_SESSION_CREATE,
+    EXAMPLE_STEP,
+)
 from symbolic.thor import CAMERA_HEIGHT_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, TEACH_DRIVER_ACTIONS
 
 _BASE64: dict[str, JsonValue] = {"contentEncoding": "base64"}
@@ -247,6 +256,9 @@ class SessionCreate(RequestModel):
     """A new session. Camera default: 900x900, 90° (TEACh) for edh/tfd/tatc; 300x300, 60° (ALFRED) for
     instruction. Planner default: "oracle" when subgoals are given, else "model"."""
 
+    # The whole example, not the fields' (900x900 cameras): its 16x16 camera matches StepRequest's frames.
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_SESSION_CREATE]})
+
     mode: Mode = Field(
         description="edh, tfd or tatc (TEACh), or instruction (ALFRED: one high-level instruction).",
         examples=["tfd"],
@@ -412,10 +424,7 @@ class SessionPublic(ResponseModel):
     explorer: ExplorerName = Field(description="Explorer in use.", examples=[DEFAULT_EXPLORER])
     seed: int = Field(description="Seed of the session's random choices.", examples=[0])
     instruction: str | None = Field(description="ALFRED goal text (mode instruction).", examples=[None])
-    plan: PlanOut = Field(
-        description="Current plan and pointer.",
-        examples=[{"subgoals": [], "text": "", "pointer": 0, "source": "oracle", "repair_log": []}],
-    )
+    plan: PlanOut = Field(description="Current plan and pointer.", examples=[EXAMPLE_PLAN])
     history_subgoals: list[SubgoalOut] = Field(
         description="EDH: subgoals the history already did (from driver_action_history).",
         examples=[[{"action": "Navigate", "object": "Knife", "text": "Navigate Knife"}]],
@@ -473,18 +482,20 @@ DriverAction = Annotated[str, AfterValidator(_is_driver_action)]
 class StepRequest(RequestModel):
     """One egocentric observation. Oracle perception needs depth + segmentation; learned needs rgb."""
 
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_STEP]})
+
     rgb: str | None = Field(
         default=None,
         description="Base64 PNG or JPEG colour frame of the camera's size, or a .npy file of uint8 [H, W, 3] "
         "RGB (nothing to decode: the fastest form where the link is fast).",
-        examples=["iVBORw0KGgo..."],
+        examples=[EXAMPLE_RGB],
         json_schema_extra=_BASE64,
     )
     depth: str | None = Field(
         default=None,
         description="Base64 depth: a 16-bit PNG in millimetres (png16_mm) or raw little-endian float32 "
         "metres, row-major height x width (float32_m). No NaN, no negatives.",
-        examples=["iVBORw0KGgo..."],
+        examples=[EXAMPLE_DEPTH],
         json_schema_extra=_BASE64,
     )
     depth_encoding: Literal["png16_mm", "float32_m"] = Field(
@@ -501,13 +512,13 @@ class StepRequest(RequestModel):
         default=None,
         description="Base64 PNG (16- or 8-bit, one channel) of instance ids, camera-sized, or a .npy file of "
         "non-negative integer ids [H, W].",
-        examples=["iVBORw0KGgo..."],
+        examples=[EXAMPLE_SEGMENTATION],
         json_schema_extra=_BASE64,
     )
     segmentation_legend: dict[int, str] | None = Field(
         default=None,
         description="Instance id -> AI2-THOR object type; ids absent here are unlabelled pixels.",
-        examples=[{"1": "Knife", "2": "CounterTop"}],
+        examples=[EXAMPLE_LEGEND],
     )
     segmentation_ids_persistent: bool = Field(
         default=True,
@@ -551,22 +562,24 @@ class StepResult(ResponseModel):
         ge=0.0,
         le=1.0,
         description="Click column as a fraction of the width (object actions).",
-        examples=[0.5],
+        examples=[0.4375],
     )
     y: float | None = Field(
-        ge=0.0, le=1.0, description="Click row as a fraction of the height (object actions).", examples=[0.62]
+        ge=0.0,
+        le=1.0,
+        description="Click row as a fraction of the height (object actions).",
+        examples=[0.625],
     )
     subgoal: str | None = Field(description="Subgoal being executed.", examples=["Pickup Knife"])
     plan: PlanOut = Field(
-        description="Plan and pointer after this step.",
-        examples=[{"subgoals": [], "text": "", "pointer": 0, "source": "oracle", "repair_log": []}],
+        description="Plan and pointer after this step.", examples=[{**EXAMPLE_PLAN, "pointer": 1}]
     )
     utterance: str | None = Field(
         description="What the agent says, if anything.", examples=["What should I do next?"]
     )
     done: bool = Field(description="True when the episode ends with this action.", examples=[False])
     step: int = Field(description="Index of this step.", examples=[0])
-    reason: str = Field(description="Why this action, in words.", examples=["knife visible within reach"])
+    reason: str = Field(description="Why this action, in words.", examples=["Interactive(Pickup, Knife)"])
 
 
 # --- TEACh's RemoteModel protocol ---------------------------------------------------------------

@@ -185,6 +185,26 @@ class Settings(BaseSettings):
     rate_burst_per_key: int = Field(
         default=400, ge=1, description="Requests one API key may send at once above its average rate."
     )
+    shutdown_grace_s: int = Field(
+        default=10,
+        ge=1,
+        description="Seconds a stopping service lets open responses finish before closing them: steps end "
+        "well within it, and the live pages' event streams, which never end by themselves, are cut (their "
+        "pages reconnect to whichever worker serves next).",
+    )
+    live_poll_s: float = Field(
+        default=0.2,
+        gt=0,
+        le=10,
+        description="Seconds between a live page's event stream looking for a newer view of its session (a "
+        "dict lookup in memory, one small Redis read with Redis).",
+    )
+    live_heartbeat_s: float = Field(
+        default=15.0,
+        gt=0,
+        description="Seconds of quiet after which an event stream sends a comment line, so proxies that "
+        "close idle connections (often after 30-60 s) keep it open.",
+    )
 
     @field_validator("store")
     @classmethod

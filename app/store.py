@@ -4,6 +4,8 @@ DESIGN.md §9: one replica holds its sessions in memory (``InMemorySessionStore`
 several worker processes or hosts share ``app.redis_store.RedisSessionStore`` behind the same interface.
 Handlers are sync and run in FastAPI's threadpool, so a store is thread-safe, and a session is held by one
 request at a time (a lock here, a lease in Redis), so two steps of one session never interleave (§4).
+Reads never hold a session: a write publishes a ``SessionView`` (``app.live_view``) before it lets go, and
+readers take the latest one, so a read never waits on, nor is refused by, a step in progress.
 
 A session belongs to an owner (the API key's name; None when the service runs without keys): another
 owner's request finds no such session. TEACh's runner names its episodes (``edh_name``), so the store also
@@ -19,7 +21,10 @@ from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+import numpy as np
+
 from agent.session import AgentSession
+from app.live_view import LiveFrame, SessionView, build_view, step_frame
 
 
 class SessionNotFound(LookupError):
@@ -61,6 +66,15 @@ class StoredSession:
     changed: bool = field(default=True, compare=False)
     """Under ``hold(write=True)``: False when the block changed nothing (a retried step answered again), so
     a durable store skips writing the same snapshot again."""
+    new_frame: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """Under ``hold(write=True)``: the RGB frame the block's step answered (the step routes set it), which
+    the published view shows; None keeps the last step's frame (an utterance)."""
+
+    def publish(self, previous: LiveFrame | None) -> SessionView:
+        """The view of what the block left, with the new frame or else ``previous`` (while still held)."""
+        frame = step_frame(self.session, self.new_frame) if self.new_frame is not None else previous
+        self.new_frame = None
+        return build_view(self.session, frame)
 
 
 class SessionStore(Protocol):
@@ -87,6 +101,19 @@ class SessionStore(Protocol):
 
     def delete(self, session_id: str, owner: str | None) -> None:
         """Forget a session; raises SessionNotFound."""
+        ...
+
+    async def view(self, session_id: str, owner: str | None, *, touch: bool) -> SessionView:
+        """The view published by the last completed change, without waiting for the session; raises
+        SessionNotFound. ``touch`` restarts the idle TTL (a request read it; a watching page does not)."""
+        ...
+
+    async def view_revision(self, session_id: str, owner: str | None) -> str:
+        """The latest view's ``revision`` (cheap: what a live page polls); raises SessionNotFound."""
+        ...
+
+    async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
+        """The kept trace lines after the last completed step, from step ``since`` on; restarts the TTL."""
         ...
 
     def ids(self, owner: str | None) -> list[str]:
@@ -121,6 +148,10 @@ class SessionStore(Protocol):
         """Release connections; the store is not used afterwards."""
         ...
 
+    async def close_readers(self) -> None:
+        """Release the readers' connections (on the event loop they were opened on), before ``close``."""
+        ...
+
     def __len__(self) -> int: ...
 
 
@@ -128,6 +159,7 @@ class SessionStore(Protocol):
 class _Entry:
     stored: StoredSession
     last_used: float  # seconds on the store's clock
+    view: SessionView  # replaced (never changed) by each completed write
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -169,18 +201,24 @@ class InMemorySessionStore:
                 if len(mine) >= owner_cap:
                     raise StoreFull(owner_cap, self._retry_after(mine), per_owner=True)
             stored = StoredSession(session, owner, dict(meta or {}))
-            self._entries[session.session_id] = _Entry(stored=stored, last_used=self._clock())
+            view = stored.publish(None)
+            self._entries[session.session_id] = _Entry(stored=stored, last_used=self._clock(), view=view)
 
     @contextmanager
-    def _holding(self, session_id: str, owner: str | None, timeout_s: float) -> Iterator[StoredSession]:
+    def _holding(
+        self, session_id: str, owner: str | None, timeout_s: float, write: bool
+    ) -> Iterator[StoredSession]:
         with self._guard:
             entry = self._live_entry(session_id, owner)
             entry.last_used = self._clock()
         if not entry.lock.acquire(timeout=timeout_s):
             raise SessionBusy(session_id, timeout_s)
         entry.stored.changed = True
+        entry.stored.new_frame = None
         try:
             yield entry.stored
+            if write and entry.stored.changed:
+                entry.view = entry.stored.publish(entry.view.frame)
         finally:
             entry.lock.release()
 
@@ -188,12 +226,26 @@ class InMemorySessionStore:
         self, session_id: str, owner: str | None, timeout_s: float, *, write: bool
     ) -> AbstractContextManager[StoredSession]:
         # In one process the held object is the stored one: a write needs no copy back.
-        return self._holding(session_id, owner, timeout_s)
+        return self._holding(session_id, owner, timeout_s, write)
 
     def delete(self, session_id: str, owner: str | None) -> None:
         with self._guard:
             self._live_entry(session_id, owner)
             del self._entries[session_id]
+
+    async def view(self, session_id: str, owner: str | None, *, touch: bool) -> SessionView:
+        # The guard is held for a dict lookup only, so the event loop may take it.
+        with self._guard:
+            entry = self._live_entry(session_id, owner)
+            if touch:
+                entry.last_used = self._clock()
+            return entry.view
+
+    async def view_revision(self, session_id: str, owner: str | None) -> str:
+        return (await self.view(session_id, owner, touch=False)).revision
+
+    async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
+        return (await self.view(session_id, owner, touch=True)).trace_lines(since)
 
     def ids(self, owner: str | None) -> list[str]:
         with self._guard:
@@ -230,6 +282,9 @@ class InMemorySessionStore:
         with self._guard:
             self._entries.clear()
             self._names.clear()
+
+    async def close_readers(self) -> None:
+        return  # readers share this process's memory: nothing to close
 
     def __len__(self) -> int:
         with self._guard:

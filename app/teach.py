@@ -456,6 +456,7 @@ def next_action(
                 decision = session.step_once(observation)
             except ObservationError as error:
                 raise observation_error(error, {"rgb": "img"}) from error
+            held.new_frame = observation.rgb  # the live view shows it (app.live_view)
             coord = None
             if decision.action in OBJECT_ACTIONS and decision.x is not None and decision.y is not None:
                 coord = [decision.y, decision.x]  # row first: TEACh's runner reads index 0 as y

@@ -7,23 +7,29 @@ any failed. Each writes its JSON result to ``bench/results/``.
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from symbolic.cli_args import Parser, plain
+
 BENCH_DIR = Path(__file__).resolve().parent
 
 
 def bench_scripts() -> list[str]:
-    """Module names of the benchmark scripts in this folder, alphabetically."""
-    return sorted(path.stem for path in BENCH_DIR.glob("*.py") if not path.stem.startswith("_"))
+    """Module names of the benchmark scripts in this folder (those with a command line), alphabetically;
+    helper modules such as ``provenance`` are not benchmarks."""
+    return sorted(
+        path.stem
+        for path in BENCH_DIR.glob("*.py")
+        if not path.stem.startswith("_") and 'if __name__ == "__main__":' in path.read_text()
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     known = bench_scripts()
-    parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m bench", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("names", nargs="*", help=f"scripts to run (default: all): {', '.join(known)}")
     args = parser.parse_args(argv)
     unknown = [name for name in args.names if name not in known]

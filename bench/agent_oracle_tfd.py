@@ -17,7 +17,6 @@ Run: ``.venv/bin/python -m bench.agent_oracle_tfd [--n 100] [--workers 2]``; wri
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -46,6 +45,7 @@ from harness.runner import (
 from harness.service import running_service
 from harness.splits import Split
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, http_url, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "agent_oracle_tfd.json"
 SPLIT: Split = "valid_unseen"
@@ -169,13 +169,11 @@ def print_table(result: dict[str, Any]) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.agent_oracle_tfd", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.agent_oracle_tfd", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes driving episodes")
     parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
-    parser.add_argument("--url", help="use a running service instead of starting one")
+    parser.add_argument("--url", type=http_url, help="use a running service instead of starting one")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     camera = CameraSpec(args.camera, args.camera, DEFAULT_CAMERA.hfov_deg)

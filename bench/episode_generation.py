@@ -11,7 +11,6 @@ Run: ``.venv/bin/python -m bench.episode_generation [--n 24] [--camera 900]``; w
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -28,6 +27,7 @@ from harness.episodes.sample import TaskSamplingError
 from harness.expert.expert import ExpertConfig, run_expert
 from harness.splits import Split
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, plain
 from symbolic.ontology import load_ontology
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
 
@@ -40,7 +40,7 @@ def _median_ms(values: list[float]) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m bench.episode_generation", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--n", type=int, default=24, help="games to attempt (default 24: two per task)")
     parser.add_argument("--camera", type=int, default=TEACH_IMAGE_SIDE, help="square camera side, pixels")
     args = parser.parse_args()

@@ -21,13 +21,11 @@ writes ``bench/results/goal_transformer_vs_frontier.json``.
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 
 from agent.exploration_gt import GoalTransformerExplorer
 from agent.geometry import Camera, Pose
@@ -44,6 +42,7 @@ from harness.perception_data import SearchConfig, SightingCheck, search_episodes
 from harness.runner import DEFAULT_CAMERA, ExplorerName, service_url
 from harness.simulator import Simulator
 from harness.world import World
+from symbolic.cli_args import Parser, plain
 from symbolic.thor import TEACH_HFOV_DEG
 
 RESULTS = Path(__file__).resolve().parent / "results" / "goal_transformer_vs_frontier.json"
@@ -142,16 +141,20 @@ def whole_episodes(n: int, workers: int, runs: Path) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.goal_transformer_vs_frontier", description=__doc__.splitlines()[0]
+    parser = Parser(
+        prog="python -m bench.goal_transformer_vs_frontier", description=plain(__doc__.splitlines()[0])
     )
     parser.add_argument("--episodes", type=int, default=30)
-    parser.add_argument("--max-steps", type=int, default=100)
+    parser.add_argument("--steps", type=int, default=100, help="steps each search episode may take")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--tfd", type=int, default=0, help="also run this many TfD games per explorer")
     parser.add_argument("--workers", type=int, default=2, help="episodes in parallel for --tfd")
-    parser.add_argument("--runs", type=Path, default=Path("runs/bench/explorers"), help="--tfd run folders")
+    parser.add_argument(
+        "--run-dir", type=Path, default=Path("runs/bench/explorers"), help="--tfd run folders"
+    )
     args = parser.parse_args()
+    import torch  # after parsing: --help loads no torch
+
     torch.set_num_threads(args.threads)
     rows = []
     for n, (world, record, expert) in enumerate(search_episodes("valid_unseen", args.episodes, SEED)):
@@ -161,14 +164,14 @@ def main() -> None:
             "expert_steps": len(expert),
         }
         for name in EXPLORERS:
-            row[name] = run_search(world.copy(), record, name, args.max_steps, SEED + n)
+            row[name] = run_search(world.copy(), record, name, args.steps, SEED + n)
         rows.append(row)
         print(f"{n:3d} {record['target']:<16} expert {len(expert):3d}  " + "  ".join(
             f"{name} {row[name]['steps'] if row[name]['found'] else '-'}" for name in EXPLORERS
         ))  # fmt: skip
     result: dict[str, Any] = {
         "episodes": len(rows),
-        "max_steps": args.max_steps,
+        "max_steps": args.steps,
         "split": "valid_unseen",
         "perception": "oracle (only exploration differs)",
         "expert_mean_steps": float(np.mean([r["expert_steps"] for r in rows])),
@@ -177,7 +180,7 @@ def main() -> None:
     }
     searches = {name: _rank(result[name]) for name in EXPLORERS}
     if args.tfd:
-        tasks = whole_episodes(args.tfd, args.workers, args.runs)
+        tasks = whole_episodes(args.tfd, args.workers, args.run_dir)
         result["tfd_oracle_subgoals"] = tasks
         result["better"] = max(
             EXPLORERS, key=lambda name: (tasks[name]["sr"], tasks[name]["gc"], *searches[name])

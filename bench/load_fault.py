@@ -26,7 +26,6 @@ Run: ``.venv/bin/python -m bench.load_fault [--sessions 32] [--steps 1000] [--ep
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import os
 import signal
@@ -51,6 +50,7 @@ from harness.client import RETRYABLE_CODES, AgentClient
 from harness.episodes.model import Episode
 from harness.runner import RunnerOptions, run_episode
 from harness.service import RunningService, running_service
+from symbolic.cli_args import Parser, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "load_fault.json"
 SCALING_BAR = 1.7  # the issue's bar: 2 workers' aggregate steps/s over 1 worker's
@@ -434,7 +434,7 @@ def measured_run(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.load_fault", description=__doc__.split("\n\n")[0])
+    parser = Parser(prog="python -m bench.load_fault", description=plain(__doc__.split("\n\n")[0]))
     parser.add_argument("--sessions", type=int, default=32, help="concurrent sessions (client threads)")
     parser.add_argument("--steps", type=int, default=1000, help="steps each session stream sends")
     parser.add_argument("--episodes", type=int, default=16, help="distinct recorded episodes")

@@ -77,11 +77,10 @@ import types
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
-import torch
 
 from agent.geometry import Camera, Pose, camera_position, camera_to_world
 from agent.mapping import SemanticMap
@@ -94,7 +93,11 @@ from bench.tatc_commander import current_commit
 from harness.render import Frame
 from harness.world import World
 from harness.worldgen import generate_kitchen
+from symbolic.cli_args import Parser, plain
 from symbolic.thor import AGENT_RADIUS_M, ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG
+
+if TYPE_CHECKING:
+    import torch
 
 THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 RESULTS = Path(__file__).resolve().parent / "results" / "map_update_published.json"
@@ -126,9 +129,7 @@ class Checkouts:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.map_update_published", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.map_update_published", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--film", type=Path, help="a checkout of github.com/soyeonm/FILM")
     parser.add_argument("--hlsm", type=Path, help="a checkout of github.com/valtsblukis/hlsm")
     parser.add_argument("--frames", type=int, default=DEFAULT_FRAMES, help="frames per camera")
@@ -154,6 +155,7 @@ def _pin_threads(argv: list[str]) -> None:
     if any(os.environ.get(name) != "1" for name in THREAD_VARS):
         os.environ.update({name: "1" for name in THREAD_VARS})
         os.execv(sys.executable, [sys.executable, "-m", "bench.map_update_published", *argv])
+    import torch  # here, not at module top: --help and the skip line load no torch
 
     torch.set_num_threads(1)
     torch.set_num_interop_threads(1)
@@ -246,6 +248,8 @@ def _film_large_objects(root: Path) -> list[str]:
 
 # ----- the run -------------------------------------------------------------------------------------------
 def _run(args: argparse.Namespace, checkouts: Checkouts, film: types.SimpleNamespace, hlsm: Any) -> int:
+    import torch
+
     load_before = os.getloadavg()
     world = generate_kitchen(SEED)
     large = _film_large_objects(checkouts.film)
@@ -433,6 +437,8 @@ def _film(
     box: Box | None,
 ) -> System:
     """FILM's mapping; with ``box``, also FILM's FMM planner toward it (the core of ``_get_stg``)."""
+    import torch
+
     args = _film_args(camera, cat_threshold, map_threshold, 31 if large else 8)
     C = args.num_sem_categories
     channels = _film_channels(large, small, C)
@@ -557,6 +563,8 @@ def _film_pose_change(last: tuple[float, float, float], now: tuple[float, float,
 
 
 def _hlsm(camera: Camera, start: Pose, hlsm: Any, box: Box) -> System:
+    import torch
+
     function = hlsm.HlsmObservationFunction(hlsm.Hyperparams({}))
     skill = hlsm.GoToSkill()
     n_classes = hlsm.segdef.get_num_objects()

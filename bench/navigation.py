@@ -41,6 +41,7 @@ from agent.navigation.vin import VinNavigator
 from harness.navgrid import CLEARANCE_M, blocks_movement, reachable_grid
 from harness.world import World
 from harness.worldgen import generate_bathroom, generate_bedroom, generate_kitchen, generate_living_room
+from symbolic.cli_args import Parser, plain
 from symbolic.thor import AGENT_RADIUS_M, GRID_STEP_M
 
 SEED = 0
@@ -305,4 +306,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
+    Parser(prog="python -m bench.navigation", description=plain(__doc__.splitlines()[0])).parse_args()
     main()

@@ -28,7 +28,6 @@ task after a change aimed at it).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import time
@@ -57,6 +56,7 @@ from harness.runner import (
 from harness.service import running_service
 from harness.splits import Split
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, http_url, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_ablation.json"
 SPLIT: Split = "valid_unseen"
@@ -194,13 +194,11 @@ def episode_indices(n: int, task: str | None = None) -> tuple[list[int], list[in
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.perception_ablation", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.perception_ablation", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
     parser.add_argument("--settings", nargs="*", default=list(SETTINGS), choices=SETTINGS)
     parser.add_argument("--workers", type=int, default=2, help="episodes driven at once (2 cores)")
-    parser.add_argument("--url", help="use a running service instead of starting one")
+    parser.add_argument("--url", type=http_url, help="use a running service instead of starting one")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument(
         "--keep-other-settings",

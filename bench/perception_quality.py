@@ -15,21 +15,16 @@ Run: ``.venv/bin/python -m bench.perception_quality [--worlds 60]``; writes
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from agent.perception.learned import LearnedConfig
 from harness.camera import CameraSpec
 from harness.perception_data import render_frames
 from models.perception.dataset import load_frames
-from models.perception.engine import resolve
-from models.perception.evaluate import evaluate_model
-from models.perception.network import load_checkpoint, read_info
+from symbolic.cli_args import Parser, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_quality.json"
 SEED = 0
@@ -39,6 +34,8 @@ FRAME_SIDE = 256  # rendered frames (px); metrics are computed at this side
 
 
 def _depth_entry(directory: Path, metrics: dict[str, Any]) -> dict[str, Any]:
+    from models.perception.network import read_info  # torch loads inside the command, not for --help
+
     config, info = read_info(directory)
     assert config.bins is not None
     return {
@@ -61,9 +58,7 @@ def _headline(depth: dict[str, Any], segmentation: dict[str, Any]) -> dict[str, 
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.perception_quality", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.perception_quality", description=plain(__doc__.splitlines()[0]))
     parser.add_argument(
         "--frames", type=Path, default=None, help="evaluate on this folder instead of rendering"
     )
@@ -73,6 +68,12 @@ def main() -> None:
     parser.add_argument("--compare-depth", type=Path, nargs="*", default=[])
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
+    import torch  # torch loads after parsing, so --help answers at once
+
+    from models.perception.engine import resolve
+    from models.perception.evaluate import evaluate_model
+    from models.perception.network import load_checkpoint
+
     torch.set_num_threads(args.threads)
     config = LearnedConfig()
     _, dtype = resolve(config.engine, config.precision)

@@ -28,7 +28,6 @@ Run: ``.venv/bin/python -m bench.perception_speed [--threads 1]``; writes
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -40,11 +39,10 @@ from dataclasses import replace
 from functools import partial
 from importlib.metadata import version
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
-import torch
 
 from agent.exploration_gt import DEFAULT_CHECKPOINT as GT_CHECKPOINT
 from agent.geometry import Camera
@@ -56,10 +54,11 @@ from harness.navgrid import reachable_grid
 from harness.render import Renderer
 from harness.splits import world_seed
 from harness.worldgen import WorldGenConfig, generate_world
-from models.goal_transformer.policy import load_goal_policy
-from models.perception.engine import resolve
-from models.perception.network import inference_dtype
+from symbolic.cli_args import Parser, plain
 from symbolic.thor import TEACH_HFOV_DEG
+
+if TYPE_CHECKING:
+    import torch
 
 RESULTS = Path(__file__).resolve().parent / "results" / "perception_speed.json"
 SEED = 0
@@ -95,6 +94,10 @@ def frames(side: int, n: int) -> list[np.ndarray]:
 
 def engine_configs(config: LearnedConfig) -> dict[str, LearnedConfig]:
     """The engines compared, by label: torch and onnx in float32, and torch in bfloat16 where native."""
+    import torch
+
+    from models.perception.network import inference_dtype
+
     configs = {
         "torch": replace(config, engine="torch", precision="float32"),
         "onnx": replace(config, engine="onnx", precision="float32"),
@@ -207,6 +210,10 @@ def agreement(reference: LearnedPerception, other: LearnedPerception, images: li
 
 def service_step_ms(threads: int = 1, n_frames: int = 8, repeats: int = 5) -> dict[str, Any]:
     """The 300x300 step with the engine the service runs by default, in float32, at ``threads`` threads."""
+    import torch
+
+    from models.perception.engine import resolve
+
     torch.set_num_threads(threads)
     config = replace(LearnedConfig(), precision="float32")
     perception = LearnedPerception(Camera(300, 300, TEACH_HFOV_DEG), config)
@@ -241,9 +248,7 @@ def _perceptions(side: int, models: LearnedModels) -> dict[str, LearnedPerceptio
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.perception_speed", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.perception_speed", description=plain(__doc__.splitlines()[0]))
     parser.add_argument(
         "--threads", type=int, default=1, help="intra-op threads (2 oversubscribe a busy machine)"
     )
@@ -252,6 +257,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--agreement-frames", type=int, default=60, help="frames the engines are compared on")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    import torch  # torch and the models load after parsing, so --help answers at once
+
+    from models.goal_transformer.policy import load_goal_policy
+    from models.perception.engine import resolve
+    from models.perception.network import inference_dtype
+
     torch.set_num_threads(args.threads)
     load_before = os.getloadavg()[0]
     config = LearnedConfig()

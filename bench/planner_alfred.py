@@ -80,7 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     commit = current_commit()  # the code the service starts with
-    runs = runs_for_commit(args.runs, commit)
+    runs = runs_for_commit(args.run_dir, commit)
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         oracle = evaluate(alfred_config("oracle", args.n), runs / "oracle", url, args.workers)

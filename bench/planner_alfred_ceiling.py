@@ -21,7 +21,6 @@ Run: ``.venv/bin/python -m bench.planner_alfred_ceiling [--checkpoint DIR]``; wr
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 from collections import Counter, defaultdict
@@ -29,13 +28,10 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import torch
-
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.data import alfred_plan, read_jsonl_gz
-from models.planner.evaluate import drop_fetch_container_open_close
-from models.planner.predict import SubgoalGenerator
 from models.planner.text import format_instruction
+from symbolic.cli_args import Parser, plain
 from symbolic.data_dir import require_data_dir
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.subgoals import format_subgoals
@@ -61,6 +57,8 @@ def _words(sentence: str) -> str:
 
 
 def tasks(path: Path, ontology: Ontology) -> Iterator[Task]:
+    from models.planner.evaluate import drop_fetch_container_open_close  # loads torch and transformers
+
     for record in read_jsonl_gz(path):
         try:
             plan = alfred_plan(record, ontology)
@@ -108,13 +106,16 @@ def scores(pairs: Sequence[tuple[str, str, str, str]]) -> dict[str, object]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.planner_alfred_ceiling", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.planner_alfred_ceiling", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args(argv)
+    import torch  # torch and transformers load after parsing, so --help answers at once
+
+    from models.planner.evaluate import drop_fetch_container_open_close
+    from models.planner.predict import SubgoalGenerator
+
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
     alfred = require_data_dir() / "alfred"

@@ -10,7 +10,7 @@ turns the agent is not told where things are, so it must search; the gap to ``pl
 the missing dialogue costs.
 
 Run: ``.venv/bin/python -m bench.planner_bare_request [--n 100] [--workers 2]``; writes
-``bench/results/planner_bare_request.json``. Games are generated into ``--runs`` (about 3 s each) unless
+``bench/results/planner_bare_request.json``. Games are generated into ``--run-dir`` (about 3 s each) unless
 ``--teach`` names a folder ``python -m harness generate --split valid_unseen`` wrote. A candidate checkpoint
 runs with ``JARVIS_PLANNER_CHECKPOINT=<dir>`` (the service reads it; the report says which ran).
 """
@@ -71,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     commit = current_commit()
-    runs = runs_for_commit(args.runs, commit)
+    runs = runs_for_commit(args.run_dir, commit)
     teach = args.teach
     if teach is None:
         teach = runs / "teach"

@@ -22,7 +22,6 @@ Run: ``.venv/bin/python -m bench.planner_latency [--data DIR ...] [--sessions 32
 
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing
 import os
@@ -36,9 +35,7 @@ from dataclasses import replace
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
 from pathlib import Path
-from typing import Any
-
-import torch
+from typing import TYPE_CHECKING, Any
 
 from agent.model_planner import ModelPlanner
 from agent.planning import DialogueTurn, PlannerConfig, PlanningContext
@@ -49,11 +46,13 @@ from harness.service import running_service
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.config import GenerationConfig
 from models.planner.data import DatasetFiles, PlannerExample, handwritten_examples, read_examples
-from models.planner.evaluate import report_for
-from models.planner.predict import SubgoalGenerator
+from symbolic.cli_args import Parser, plain
 from symbolic.data_dir import REPO_ROOT
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import parse_subgoals
+
+if TYPE_CHECKING:
+    from models.planner.predict import SubgoalGenerator
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planner_latency.json"
 HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
@@ -165,6 +164,8 @@ def agreement(
 ) -> dict[str, Any]:
     """Per set: how many inputs the two engines give the identical generated plan, and each engine's exact
     match and F1 against the references."""
+    from models.planner.evaluate import report_for  # loads torch and transformers
+
     ontology = load_ontology()
     result: dict[str, Any] = {}
     for name, examples in sets.items():
@@ -208,9 +209,7 @@ def _timed(label: str, run: Callable[[], Any]) -> Any:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.planner_latency", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.planner_latency", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
     parser.add_argument(
         "--threads", type=int, default=1, help="torch and ONNX Runtime threads (one per worker)"
@@ -220,6 +219,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     os.environ.setdefault("HF_HUB_OFFLINE", "1")
+    import torch  # torch and transformers load after parsing, so --help answers at once
+
+    from models.planner.predict import SubgoalGenerator
+
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
     load_before = os.getloadavg()[0]

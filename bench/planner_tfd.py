@@ -9,7 +9,8 @@ with ``bench/results/agent_oracle_tfd.json`` (the expert's subgoals on the same 
 what the planner costs.
 
 Run: ``.venv/bin/python -m bench.planner_tfd [--n 100] [--workers 2]``; writes
-``bench/results/planner_tfd.json``. The run folder (``--runs``) resumes when started again by the same commit.
+``bench/results/planner_tfd.json``. The run folder (``--run-dir``) resumes when started again by the same
+commit.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from bench.tatc_commander import current_commit, level_summary, runs_for_commit
 from harness.evaluate import EvalConfig, evaluate
 from harness.runner import DEFAULT_CAMERA, service_url
 from harness.splits import Split
+from symbolic.cli_args import Parser, http_url, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planner_tfd.json"
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[1] / "models" / "checkpoints" / "planner"
@@ -48,11 +50,13 @@ def checkpoint_summary() -> dict[str, Any]:
 def episode_bench_parser(name: str, doc: str | None, n: int, n_help: str) -> argparse.ArgumentParser:
     """The options every planner SR bench takes: how many episodes, workers, a resumable run folder under
     ``runs/bench/<name>``, and a running service to use instead of starting one."""
-    parser = argparse.ArgumentParser(prog=f"python -m bench.{name}", description=(doc or "").splitlines()[0])
+    parser = Parser(prog=f"python -m bench.{name}", description=plain((doc or "").splitlines()[0]))
     parser.add_argument("--n", type=int, default=n, help=n_help)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--runs", type=Path, default=Path("runs/bench") / name, help="resumable run folder")
-    parser.add_argument("--url", help="a running service (default: start one)")
+    parser.add_argument(
+        "--run-dir", type=Path, default=Path("runs/bench") / name, help="resumable run folder"
+    )
+    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")
     return parser
 
 
@@ -71,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
-        result = evaluate(config, runs_for_commit(args.runs, commit), url, args.workers)
+        result = evaluate(config, runs_for_commit(args.run_dir, commit), url, args.workers)
     summary = level_summary(result)
     report: dict[str, Any] = {
         "benchmark": "tfd_model_planner",

@@ -24,6 +24,7 @@ from harness.navgrid import reachable_grid
 from harness.render import Renderer
 from harness.world import AgentState, World
 from harness.worldgen import generate_kitchen
+from symbolic.cli_args import Parser, plain
 from symbolic.thor import ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
 
 SEED = 0
@@ -101,4 +102,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
+    Parser(prog="python -m bench.render_speed", description=plain(__doc__.splitlines()[0])).parse_args()
     main()

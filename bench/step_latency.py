@@ -19,7 +19,6 @@ Run: ``.venv/bin/python -m bench.step_latency``; writes ``bench/results/step_lat
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
@@ -43,6 +42,7 @@ from harness.runner import EpisodeRun, EpisodeUnavailable, RunnerOptions, genera
 from harness.service import RunningService, running_service
 from harness.splits import Split
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "step_latency.json"
 SPLIT: Split = "valid_unseen"
@@ -162,7 +162,7 @@ def measure_concurrency(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.step_latency", description=__doc__.splitlines()[0])
+    parser = Parser(prog="python -m bench.step_latency", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--episodes", type=int, default=6, help="episodes timed one at a time")
     parser.add_argument("--sessions", type=int, default=32, help="concurrent sessions")
     parser.add_argument("--concurrent-steps", type=int, default=60, help="step cap per concurrent session")

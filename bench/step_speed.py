@@ -29,6 +29,7 @@ from harness.clicks import click_point_of
 from harness.simulator import Simulator
 from harness.world import World
 from harness.worldgen import WorldGenConfig, generate_world
+from symbolic.cli_args import Parser, plain
 from symbolic.ontology import load_ontology
 from symbolic.thor import (
     ALFRED_HFOV_DEG,
@@ -150,4 +151,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
+    Parser(prog="python -m bench.step_speed", description=plain(__doc__.splitlines()[0])).parse_args()
     main()

@@ -5,7 +5,7 @@ The issue's bar: with full information, SR ≥ 70% on 100 generated valid_unseen
 ``python -m harness eval --benchmark tatc`` run (``harness.evaluate``: episode i is the generated game i,
 task i % 12; the commander bot in the harness process, the follower a real service subprocess reached over
 HTTP; frames at 300x300 with depth and segmentation, as ``harness eval`` defaults). The runs go to
-``--runs DIR/<level>`` and resume when started again by the same commit. Beside them, the same commander
+``--run-dir DIR/<level>`` and resume when started again by the same commit. Beside them, the same commander
 with a follower that carries out each instruction to the letter
 (``harness.commander.episode.run_obedient_episode``) gives the upper bound the instructions allow: what the
 follower loses is the difference.
@@ -16,7 +16,6 @@ Run: ``.venv/bin/python -m bench.tatc_commander [--n 100] [--n-other 24] [--work
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
 import shutil
@@ -34,6 +33,7 @@ from harness.commander.episode import run_obedient_episode
 from harness.evaluate import EvalConfig, evaluate
 from harness.runner import DEFAULT_CAMERA, EpisodeUnavailable, generated_tfd_episode, service_url
 from harness.splits import Split
+from symbolic.cli_args import Parser, http_url, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "tatc_commander.json"
 SPLIT: Split = "valid_unseen"
@@ -99,21 +99,21 @@ def obedient(n: int) -> dict[str, Any]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m bench.tatc_commander", description=__doc__.splitlines()[0]
-    )
+    parser = Parser(prog="python -m bench.tatc_commander", description=plain(__doc__.splitlines()[0]))
     parser.add_argument("--n", type=int, default=100, help="episodes with full information")
     parser.add_argument("--n-other", type=int, default=24, help="episodes at the two other levels")
     parser.add_argument("--levels", nargs="+", default=list(get_args(InfoLevel)), choices=get_args(InfoLevel))
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--runs", type=Path, default=Path("runs/bench_tatc"), help="run folders (resumable)")
-    parser.add_argument("--url", help="a running service (default: start one)")
+    parser.add_argument(
+        "--run-dir", type=Path, default=Path("runs/bench_tatc"), help="run folders (resumable)"
+    )
+    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")
     parser.add_argument("--no-obedient", action="store_true", help="skip the obedient-follower upper bound")
     args = parser.parse_args(argv)
 
     levels: dict[str, Any] = {}
     commit = current_commit()  # what the service starts with (later commits never reach it)
-    runs = runs_for_commit(args.runs, commit)
+    runs = runs_for_commit(args.run_dir, commit)
     started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         for level in args.levels:

@@ -25,7 +25,6 @@ default 127.0.0.1:6379); writes ``bench/results/under_load.json``. Takes about 1
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import threading
@@ -44,6 +43,7 @@ from bench.step_latency import episodes, measure_concurrency, server_step_ms
 from harness.episodes.model import Episode
 from harness.runner import RunnerOptions
 from harness.service import running_service
+from symbolic.cli_args import Parser, plain
 
 RESULTS = Path(__file__).resolve().parent / "results" / "under_load.json"
 BARS = {
@@ -167,7 +167,7 @@ def ratio(numerator: float | None, denominator: float | None) -> float | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.under_load", description=__doc__.split("\n\n")[0])
+    parser = Parser(prog="python -m bench.under_load", description=plain(__doc__.split("\n\n")[0]))
     parser.add_argument("--episodes", type=int, default=6, help="games played alone and recorded")
     parser.add_argument("--together", type=int, default=4, help="live sessions stepping at once")
     parser.add_argument("--sessions", type=int, default=32, help="replaying sessions for throughput")

@@ -11,6 +11,7 @@ whenever the run completed, whether or not the agent solved the task: the printo
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import sys
@@ -18,9 +19,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from PIL import Image
+
 from harness.camera import CameraSpec
-from harness.client import AgentClient, ServiceError
-from harness.gif import write_gif
+from harness.client import AgentClient, FrameEncoding, ServiceError
+from harness.gif import StepPicture, write_episode_gif
+from harness.render import Frame
 from harness.runner import (
     DEFAULT_CAMERA,
     ActionRecord,
@@ -34,6 +39,7 @@ from harness.runner import (
 )
 from harness.service import ServiceStartError, port_is_free, running_service
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, int_at_least, plain, port
 from symbolic.subgoals import format_subgoals
 from symbolic.thor import TEACH_HFOV_DEG
 
@@ -52,11 +58,69 @@ def _say(text: str) -> None:
     sys.stdout.flush()
 
 
-def _caption(record: ActionRecord | None) -> str:
-    if record is None:
-        return "end"
+def _caption(record: ActionRecord, plan: Sequence[str]) -> tuple[str, ...]:
+    """Step, action, click point and outcome; the subgoal it served; the service's reason."""
+    click = f" at ({record.x:.2f}, {record.y:.2f})" if record.x is not None and record.y is not None else ""
     status = "ok" if record.success else f"failed: {record.failure}"
-    return f"{record.step}: {record.action} ({status})"
+    where = f"{record.pointer + 1}/{len(plan)}" if record.pointer < len(plan) else "done"
+    return (
+        f"step {record.step}: {record.action}{click}  {status}",
+        f"subgoal {where}: {record.subgoal or '-'}",
+        f"why: {record.reason}",
+    )
+
+
+def _end_caption(run: EpisodeRun) -> tuple[str, ...]:
+    verdict = "SUCCESS" if run.outcome.success else f"FAILED: {run.failure}"
+    return (f"end after {len(run.actions)} actions", verdict)
+
+
+class MapRecordingClient(AgentClient):
+    """An AgentClient that also fetches the session's map after every answered step (for the GIF)."""
+
+    def __init__(self, base_url: str) -> None:
+        super().__init__(base_url)
+        self.maps: list[bytes] = []
+
+    def step(
+        self,
+        session_id: str,
+        frame: Frame,
+        *,
+        pose: Mapping[str, float] | None = None,
+        last_action_success: bool | None = None,
+        step_index: int | None = None,
+        encoding: FrameEncoding | None = None,
+    ) -> dict[str, Any]:
+        result = super().step(
+            session_id,
+            frame,
+            pose=pose,
+            last_action_success=last_action_success,
+            step_index=step_index,
+            encoding=encoding,
+        )
+        self.maps.append(self.map_png(session_id))
+        return result
+
+
+def _png_rgb(data: bytes) -> np.ndarray:
+    with Image.open(io.BytesIO(data)) as picture:
+        return np.asarray(picture.convert("RGB"))
+
+
+def episode_pictures(run: EpisodeRun, maps: Sequence[bytes]) -> list[StepPicture]:
+    """Frame i (seen before action i) with action i's click, the map after step i, and its caption; the
+    last frame (after the last action) with the last map and the outcome."""
+    pictures = []
+    for frame, record, map_png in zip(run.frames, run.actions, maps, strict=False):
+        click = (record.x, record.y) if record.x is not None and record.y is not None else None
+        caption = _caption(record, run.plans[record.plan_version])
+        pictures.append(StepPicture(frame, _png_rgb(map_png), click, caption))
+    if len(run.frames) > len(pictures):
+        last_map = _png_rgb(maps[-1]) if maps else None
+        pictures.append(StepPicture(run.frames[-1], last_map, None, _end_caption(run)))
+    return pictures
 
 
 def _print_plan(plan: Mapping[str, Any], title: str) -> None:
@@ -93,31 +157,37 @@ class LiveProgress:
         self._at = at
 
 
-def _write_outputs(run: EpisodeRun, client: AgentClient, out: Path, gif_every: int) -> list[Path]:
+def _write_outputs(run: EpisodeRun, client: MapRecordingClient, out: Path, gif_every: int) -> list[Path]:
     """map.png and trace.ndjson from the service, episode.gif and summary.json from the run."""
     out.mkdir(parents=True, exist_ok=True)
     map_path = out / "map.png"
     map_path.write_bytes(client.map_png(run.session_id))
     trace_path = out / "trace.ndjson"
     trace_path.write_text("".join(json.dumps(line) + "\n" for line in client.trace(run.session_id)))
-    captions = [_caption(record) for record in run.actions][: len(run.frames)]
-    captions += [_caption(None)] * (len(run.frames) - len(captions))
-    every = max(gif_every, math.ceil(len(run.frames) / GIF_MAX_FRAMES))
-    gif_path = write_gif(run.frames, out / "episode.gif", captions=captions, every=every)
+    pictures = episode_pictures(run, client.maps)
+    every = max(gif_every, math.ceil(len(pictures) / GIF_MAX_FRAMES))
+    gif_path = write_episode_gif(pictures, out / "episode.gif", every=every)
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(run.summary(), indent=2))
     return [map_path, gif_path, trace_path, summary_path]
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m harness demo", description=__doc__.splitlines()[0])
-    parser.add_argument("--port", type=int, help="port for the service (a free one if absent or busy)")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="where map.png, episode.gif... go")
+    parser = Parser(prog="python -m harness demo", description=plain(__doc__.splitlines()[0]))
+    parser.add_argument("--port", type=port, help="port for the service (a free one if absent or busy)")
+    parser.add_argument("--out-dir", type=Path, default=DEFAULT_OUT, help="where map.png, episode.gif... go")
     parser.add_argument("--task", default=DEMO_TASK, choices=BENCHMARK_TASKS)
-    parser.add_argument("--index", type=int, default=DEMO_INDEX, help="valid_unseen episode index")
-    parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
     parser.add_argument(
-        "--gif-every", type=int, default=1, help=f"keep every k-th frame (at most {GIF_MAX_FRAMES} frames)"
+        "--index", type=int_at_least(0), default=DEMO_INDEX, help="valid_unseen episode index"
+    )
+    parser.add_argument(
+        "--camera", type=int_at_least(32), default=DEFAULT_CAMERA.width, help="square frame side, px"
+    )
+    parser.add_argument(
+        "--gif-every",
+        type=int_at_least(1),
+        default=1,
+        help=f"keep every k-th frame (at most {GIF_MAX_FRAMES} frames)",
     )
     return parser
 
@@ -144,24 +214,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     _say(f"\nOracle plan ({len(episode.future_subgoals)} subgoals, the expert's):")
     _say(f"  {format_subgoals(episode.future_subgoals)}")
     options = RunnerOptions(camera=camera, record_frames=True, delete_session=False)
-    args.out.mkdir(parents=True, exist_ok=True)
+    args.out_dir.mkdir(parents=True, exist_ok=True)
     try:
-        with running_service(port, log_path=args.out / "service.log") as service:
+        with running_service(port, log_path=args.out_dir / "service.log") as service:
             _say(f"\nService ready at {service.base_url}; running the episode over HTTP...")
-            with AgentClient(service.base_url) as client:
+            client = MapRecordingClient(service.base_url)
+            with client:
                 run = run_episode(episode, client, options, on_step=LiveProgress())
                 _say("\nSubgoals:")
                 _say("\n".join(describe_subgoals(run)))
                 _say("\nResult:")
                 _say("\n".join(describe_metrics(run)))
                 _say(f"  {'SUCCESS' if run.outcome.success else 'FAILED'}: {run.failure or 'task complete'}")
-                written = _write_outputs(run, client, args.out, args.gif_every)
+                written = _write_outputs(run, client, args.out_dir, args.gif_every)
                 client.delete(run.session_id)
     except (ServiceStartError, ServiceError) as error:
         _say(f"\nThe demo could not complete: {error}")
         return 1
     _say("\nWrote:")
-    for path in [*written, args.out / "service.log"]:
+    for path in [*written, args.out_dir / "service.log"]:
         _say(f"  {path}")
     _say("Service stopped.")
     return 0

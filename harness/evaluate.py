@@ -60,6 +60,7 @@ from harness.runner import (
     EpisodeUnavailable,
     ExplorerName,
     RunnerOptions,
+    ServiceUnreachable,
     generated_episode,
     generated_teach_instance,
     load_teach_instance,
@@ -69,6 +70,7 @@ from harness.runner import (
 )
 from harness.splits import SPLITS, Split
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, existing_dir, fail, http_url, int_at_least, plain, port
 from symbolic.subgoals import subgoals_from_alfred_low_actions
 from symbolic.thor import ALFRED_HFOV_DEG, TEACH_HFOV_DEG
 
@@ -408,15 +410,28 @@ def evaluate(config: EvalConfig, out: Path, base_url: str, workers: int = 1) -> 
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m harness eval", description=__doc__.split("\n\n")[0])
+    parser = Parser(prog="python -m harness eval", description=plain(__doc__.split("\n\n")[0]))
     parser.add_argument("--benchmark", required=True, choices=get_args(BenchmarkName))
-    parser.add_argument("--split", default="valid_unseen", help="valid_unseen (default), valid_seen or train")
-    parser.add_argument("--n", type=int, required=True, help="episodes (slots 0..n-1)")
-    parser.add_argument("--workers", type=int, default=1, help="episodes run in parallel")
-    parser.add_argument("--out", type=Path, help="run folder (default: runs/eval/<benchmark>_<split>)")
-    parser.add_argument("--data", type=Path, help="TEACh-format instances to run instead of generating")
-    parser.add_argument("--tasks", nargs="+", default=list(BENCHMARK_TASKS), metavar="TASK")
-    parser.add_argument("--camera", type=int, help="square frame side (default 300)")
+    parser.add_argument(
+        "--split", default="valid_unseen", choices=SPLITS, help="ALFRED's valid_unseen runs valid_seen"
+    )
+    parser.add_argument("--n", type=int_at_least(1), required=True, help="episodes (slots 0..n-1)")
+    parser.add_argument("--workers", type=int_at_least(1), default=1, help="episodes run in parallel")
+    parser.add_argument(
+        "--run-dir", type=Path, help="resumable run folder (default: runs/eval/<benchmark>_<split>)"
+    )
+    parser.add_argument(
+        "--data", type=existing_dir, help="TEACh-format instances to run instead of generating"
+    )
+    parser.add_argument(
+        "--task",
+        action="append",
+        choices=BENCHMARK_TASKS,
+        help="only this TEACh task (repeat for several; default: all 12)",
+    )
+    parser.add_argument(
+        "--camera", type=int_at_least(32), help="square frame side (default 300; ALFRED's for alfred)"
+    )
     parser.add_argument("--planner", default="oracle", choices=("oracle", "model"))
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
@@ -429,9 +444,9 @@ def _parser() -> argparse.ArgumentParser:
         help="edh only: teach drives TEACh's RemoteModel routes as TEACh's runner does (RGB JPEG frames)",
     )
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--url", help="base URL of a running service")
+    where.add_argument("--url", type=http_url, help="base URL of a running service")
     where.add_argument("--start-service", action="store_true", help="start a service for this run")
-    parser.add_argument("--port", type=int, help="port of a running service (or for --start-service)")
+    parser.add_argument("--port", type=port, help="port of a running service (or for --start-service)")
     return parser
 
 
@@ -452,20 +467,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             perception=args.perception,
             navigator=args.navigator,
             explorer=args.explorer,
-            tasks=tuple(args.tasks),
+            tasks=tuple(args.task or BENCHMARK_TASKS),
             data=str(args.data.resolve()) if args.data else None,
             info=args.info,
             protocol=args.protocol,
         )
     except ValueError as error:
         parser.error(str(error))
-    out = args.out or Path("runs") / "eval" / f"{args.benchmark}_{split}"
+    out = args.run_dir or Path("runs") / "eval" / f"{args.benchmark}_{split}"
     try:
         with service_url(args.url, args.port, args.start_service) as base_url:
             result = evaluate(config, out, base_url, args.workers)
-    except RunMismatch as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    except (RunMismatch, ServiceUnreachable) as error:
+        fail("python -m harness eval", str(error))
     except KeyboardInterrupt:
         done = len(finished_records(out, config.n))
         print(f"\ninterrupted: {done}/{config.n} episodes in {out}; run again to go on", file=sys.stderr)

@@ -12,8 +12,8 @@ code reads (documented in ``models/perception/dataset.py`` and ``models/goal_tra
   of TEACh's six body motions to a pose where it is (breadth-first over cells × yaws, the expert's
   knowledge of the world standing in for the human driver), with the frame seen before every action.
 
-Usage: ``python -m harness.perception_data frames --out DIR --split train --worlds 400``;
-``python -m harness.perception_data search --out DIR --split train --episodes 400``.
+Usage: ``python -m harness.perception_data frames --out-dir DIR --split train --worlds 400``;
+``python -m harness.perception_data search --out-dir DIR --split train --episodes 400``.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ from harness.tasks.sampling import parameter_space, task_needs
 from harness.tasks.teach_definitions import BENCHMARK_TASKS, make_task_instance
 from harness.world import RoomKind, World, WorldObject
 from harness.worldgen import WorldGenConfig, WorldGenError, generate_world
+from symbolic.cli_args import Parser, int_at_least, plain, positive_float
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import CAMERA_HEIGHT_M, GRID_STEP_M, TEACH_HFOV_DEG
 
@@ -412,22 +413,25 @@ def render_search(out: Path, split: Split, episodes: int, camera: CameraSpec, se
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m harness.perception_data", description=__doc__.split("\n")[0]
-    )
+    parser = Parser(prog="python -m harness.perception_data", description=plain(__doc__.split("\n")[0]))
     sub = parser.add_subparsers(dest="command", required=True)
     for name, help_ in (("frames", "RGB/depth/segmentation frames"), ("search", "search-phase trajectories")):
         p = sub.add_parser(name, help=help_)
-        p.add_argument("--out", type=Path, required=True, help="folder to write (created)")
+        p.add_argument("--out-dir", type=Path, required=True, help="folder to write (created)")
         p.add_argument("--split", choices=("train", "valid_unseen"), default="train")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument(
-            "--size", type=int, default=256 if name == "frames" else 224, help="image side, pixels"
+            "--size",
+            type=int_at_least(32),
+            default=256 if name == "frames" else 224,
+            help="image side, pixels",
         )
-        p.add_argument("--hfov", type=float, default=TEACH_HFOV_DEG, help="horizontal field of view, degrees")
+        p.add_argument(
+            "--hfov", type=positive_float, default=TEACH_HFOV_DEG, help="horizontal field of view, degrees"
+        )
     frames = sub.choices["frames"]
-    frames.add_argument("--worlds", type=int, default=400)
-    frames.add_argument("--per-world", type=int, default=12)
+    frames.add_argument("--worlds", type=int_at_least(1), default=400, help="worlds generated")
+    frames.add_argument("--per-world", type=int_at_least(1), default=12, help="frames per world")
     frames.add_argument(
         "--focus-share", type=float, default=0.0, help="share of frames looking at a small object from near"
     )
@@ -435,7 +439,7 @@ def _parser() -> argparse.ArgumentParser:
         "--held-share", type=float, default=0.0, help="share of frames with a random object in the hand"
     )
     search = sub.choices["search"]
-    search.add_argument("--episodes", type=int, default=400)
+    search.add_argument("--episodes", type=int_at_least(1), default=400, help="episodes to render")
     return parser
 
 
@@ -444,7 +448,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     camera = CameraSpec(args.size, args.size, args.hfov)
     if args.command == "frames":
         count = render_frames(
-            args.out,
+            args.out_dir,
             args.split,
             args.worlds,
             args.per_world,
@@ -453,10 +457,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             focus_share=args.focus_share,
             held_share=args.held_share,
         )
-        tqdm.write(f"wrote {count} frames to {args.out}")
+        tqdm.write(f"wrote {count} frames to {args.out_dir}")
     else:
-        count = render_search(args.out, args.split, args.episodes, camera, args.seed)
-        tqdm.write(f"wrote {count} search episodes to {args.out}")
+        count = render_search(args.out_dir, args.split, args.episodes, camera, args.seed)
+        tqdm.write(f"wrote {count} search episodes to {args.out_dir}")
     return 0
 
 

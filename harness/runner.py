@@ -45,6 +45,17 @@ from harness.tasks.alfred import AlfredTask
 from harness.tasks.progress import GoalReport
 from harness.tasks.teach import BENCHMARK_TASKS
 from harness.world import World
+from symbolic.cli_args import (
+    Parser,
+    existing_dir,
+    existing_path,
+    fail,
+    http_url,
+    int_at_least,
+    plain,
+    port,
+    positive_float,
+)
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import format_subgoals
 from symbolic.thor import (
@@ -671,6 +682,22 @@ def describe_metrics(run: EpisodeRun) -> list[str]:
     return lines
 
 
+class ServiceUnreachable(RuntimeError):
+    """Nothing answers ``GET /healthz`` at the URL a command was given (or at its default port)."""
+
+
+def require_service(base_url: str, timeout_s: float = 5.0) -> None:
+    """Fail before any work when no service answers at ``base_url``: one clear line instead of a traceback
+    from the first step's connection error."""
+    try:
+        httpx.get(f"{base_url}/healthz", timeout=timeout_s)
+    except httpx.TransportError as error:
+        raise ServiceUnreachable(
+            f"no service answers at {base_url} ({type(error).__name__}: {error}); "
+            "start one (make serve) or pass --start-service"
+        ) from None
+
+
 @contextmanager
 def service_url(url: str | None, port: int | None, start: bool) -> Iterator[str]:
     """The service to talk to: a given URL, a port on this machine, or one started for the run."""
@@ -678,27 +705,37 @@ def service_url(url: str | None, port: int | None, start: bool) -> Iterator[str]
         with running_service(port) as service:
             yield service.base_url
     else:
-        yield url or f"http://127.0.0.1:{port or 8000}"
+        base_url = url or f"http://127.0.0.1:{port or 8000}"
+        require_service(base_url)
+        yield base_url
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m harness run", description=main.__doc__)
+    parser = Parser(prog="python -m harness run", description=plain(main.__doc__))
     parser.add_argument(
         "--task", choices=BENCHMARK_TASKS, help="only this task (default: task index %% 12, as generated)"
     )
     parser.add_argument("--split", default="valid_unseen", choices=SPLITS)
-    parser.add_argument("--index", type=int, default=0, help="episode index within the split")
+    parser.add_argument("--index", type=int_at_least(0), default=0, help="episode index within the split")
     parser.add_argument(
         "--instance", default="tfd", help="tfd (whole dialogue) or edh0, edh1... (an EDH cut of the game)"
     )
-    parser.add_argument("--file", type=Path, help="run this TEACh-format EDH or TfD instance file instead")
-    parser.add_argument("--games", type=Path, help="the games folder of --file (default: ../../games)")
+    parser.add_argument(
+        "--file", type=existing_path, help="run this TEACh-format EDH or TfD instance file instead"
+    )
+    parser.add_argument(
+        "--games", type=existing_dir, help="the games folder of --file (default: ../../games)"
+    )
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--url", help="base URL of a running service")
+    where.add_argument("--url", type=http_url, help="base URL of a running service")
     where.add_argument("--start-service", action="store_true", help="start a service for this run")
-    parser.add_argument("--port", type=int, help="port of a running service (or for --start-service)")
-    parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
-    parser.add_argument("--hfov", type=float, default=TEACH_HFOV_DEG, help="horizontal field of view, deg")
+    parser.add_argument("--port", type=port, help="port of a running service (or for --start-service)")
+    parser.add_argument(
+        "--camera", type=int_at_least(32), default=DEFAULT_CAMERA.width, help="square frame side, px"
+    )
+    parser.add_argument(
+        "--hfov", type=positive_float, default=TEACH_HFOV_DEG, help="horizontal field of view, deg"
+    )
     parser.add_argument("--planner", default="oracle", choices=("oracle", "model"))
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
     parser.add_argument("--navigator", default="fmm", choices=("fmm", "vin"))
@@ -715,7 +752,7 @@ def _parser() -> argparse.ArgumentParser:
         default="png",
         help="png: PNG images as AI2-THOR runners send; arrays: .npy RGB and ids, float32 depth",
     )
-    parser.add_argument("--json", type=Path, help="write the run's summary (metrics, actions) here")
+    parser.add_argument("--out", type=Path, help="write the run's summary (metrics, actions) here (JSON)")
     return parser
 
 
@@ -746,26 +783,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         transport="multipart" if args.multipart else "json",
         frames=args.frames,
     )
-    try:
-        episode = _chosen_episode(args, camera)
+    try:  # the service is asked first, so a wrong --url fails before the episode is built
+        with service_url(args.url, args.port, args.start_service) as url, AgentClient(url) as client:
+            episode = _chosen_episode(args, camera)
+            print(f"{episode.benchmark} episode {episode.instance_id}: {episode.task.describe()}")
+            for speaker, text in episode.dialogue:
+                print(f"  {speaker}: {text}")
+            if episode.history_subgoals:
+                print(f"history subgoals: {format_subgoals(episode.history_subgoals)}")
+            print(f"oracle plan: {format_subgoals(episode.future_subgoals)}")
+            run = run_episode(episode, client, options)
+    except ServiceUnreachable as error:
+        fail("python -m harness run", str(error))
     except EpisodeUnavailable as error:
         print(f"no episode: {error}", file=sys.stderr)
         return 1
-    print(f"{episode.benchmark} episode {episode.instance_id}: {episode.task.describe()}")
-    for speaker, text in episode.dialogue:
-        print(f"  {speaker}: {text}")
-    if episode.history_subgoals:
-        print(f"history subgoals: {format_subgoals(episode.history_subgoals)}")
-    print(f"oracle plan: {format_subgoals(episode.future_subgoals)}")
-    with service_url(args.url, args.port, args.start_service) as url, AgentClient(url) as client:
-        run = run_episode(episode, client, options)
     print(f"service plan: {run.initial_plan['text']}")
     print("subgoals:")
     print("\n".join(describe_subgoals(run)))
     print("metrics:")
     print("\n".join(describe_metrics(run)))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(run.summary(), indent=2))
-        print(f"wrote {args.json}")
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(run.summary(), indent=2))
+        print(f"wrote {args.out}")
     return 0

@@ -19,10 +19,11 @@ from fastapi import Depends, Request
 
 from app.access import CALLER_STATE
 from app.errors import NOT_READY, ApiError
+from app.live_view import SessionView
 from app.ownership import Caller
 from app.settings import Settings
-from app.store import SessionStore, StoredSession
-from app.store_errors import store_errors_as_api_errors
+from app.store import SessionNotFound, SessionStore, StoredSession
+from app.store_errors import session_not_found, store_errors_as_api_errors
 from app.teach import TeachForm, read_teach_form
 from symbolic.ontology import Ontology
 
@@ -102,3 +103,15 @@ async def get_session(
 
 
 SessionDep = Annotated[SessionHandle, Depends(get_session)]
+
+
+async def get_view(session_id: str, store: StoreDep, caller: CallerDep) -> SessionView:
+    """The caller's session as its last completed change left it, without waiting for a step in progress
+    (``app.live_view``); reading counts as use (restarts the idle TTL)."""
+    try:
+        return await store.view(session_id, caller.owner, touch=True)
+    except SessionNotFound as error:
+        raise session_not_found(session_id) from error
+
+
+ViewDep = Annotated[SessionView, Depends(get_view)]

@@ -17,6 +17,7 @@ from harness.runner import (
     DEFAULT_CAMERA,
     EpisodeUnavailable,
     RunnerOptions,
+    ServiceUnreachable,
     describe_metrics,
     describe_subgoals,
     generated_tfd_episode,
@@ -24,24 +25,27 @@ from harness.runner import (
 )
 from harness.splits import SPLITS
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, fail, http_url, int_at_least, plain, port
 from symbolic.thor import TEACH_HFOV_DEG
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m harness commander", description=main.__doc__)
+    parser = Parser(prog="python -m harness commander", description=plain(main.__doc__))
     parser.add_argument("--task", choices=BENCHMARK_TASKS, help="only this task (default: index %% 12)")
     parser.add_argument("--split", default="valid_unseen", choices=SPLITS)
-    parser.add_argument("--index", type=int, default=0, help="generated game within the split")
+    parser.add_argument("--index", type=int_at_least(0), default=0, help="generated game within the split")
     parser.add_argument(
         "--info", default="full", choices=get_args(InfoLevel), help="what the commander may tell"
     )
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--url", help="base URL of the follower service")
+    where.add_argument("--url", type=http_url, help="base URL of the follower service")
     where.add_argument("--start-service", action="store_true", help="start a follower service for this run")
-    parser.add_argument("--port", type=int, help="port of a running service (or for --start-service)")
-    parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
+    parser.add_argument("--port", type=port, help="port of a running service (or for --start-service)")
+    parser.add_argument(
+        "--camera", type=int_at_least(32), default=DEFAULT_CAMERA.width, help="square frame side, px"
+    )
     parser.add_argument("--perception", default="oracle", choices=("oracle", "learned"))
-    parser.add_argument("--json", type=Path, help="write the run's summary here")
+    parser.add_argument("--out", type=Path, help="write the run's summary here (JSON)")
     return parser
 
 
@@ -57,18 +61,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     print(f"TATC episode {episode.instance_id}: {episode.task.describe()} (commander info: {args.info})")
     options = RunnerOptions(camera=camera, perception=args.perception, delete_session=False)
-    with service_url(args.url, args.port, args.start_service) as url, AgentClient(url, timeout=120) as client:
-        run = run_tatc_episode(episode, client, options, args.info)
-        dialogue = client.get_session(run.session_id)["dialogue"]
-        client.delete(run.session_id)
+    try:
+        with (
+            service_url(args.url, args.port, args.start_service) as url,
+            AgentClient(url, timeout=120) as client,
+        ):
+            run = run_tatc_episode(episode, client, options, args.info)
+            dialogue = client.get_session(run.session_id)["dialogue"]
+            client.delete(run.session_id)
+    except ServiceUnreachable as error:
+        fail("python -m harness commander", str(error))
     for turn in dialogue:
         print(f"  {turn['speaker']}: {turn['text']}")
     print("subgoals:")
     print("\n".join(describe_subgoals(run)))
     print("metrics:")
     print("\n".join(describe_metrics(run)))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({**run.summary(), "dialogue": dialogue}, indent=2))
-        print(f"wrote {args.json}")
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps({**run.summary(), "dialogue": dialogue}, indent=2))
+        print(f"wrote {args.out}")
     return 0

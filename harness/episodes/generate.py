@@ -36,6 +36,7 @@ from harness.episodes.teach_format import GAME_VERSION, camera_dict, write_json
 from harness.expert.expert import ExpertConfig, run_expert
 from harness.splits import SPLITS, Split, task_seed, world_seed
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, int_at_least
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE, TEACH_LOOK_STEP_DEG
 
@@ -165,39 +166,39 @@ def _manifest(config: GenerateConfig, tallies: dict[str, SplitTally]) -> dict[st
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="python -m harness generate",
         description="Write TEACh-format games, EDH and TfD instances and ALFRED-style instructions.",
     )
-    parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
+    parser.add_argument("--out-dir", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument("--split", choices=[*SPLITS, "all"], default="all", help="which split(s) to write")
-    parser.add_argument("--n", type=int, required=True, help="games to attempt per split")
+    parser.add_argument("--n", type=int_at_least(1), required=True, help="games to attempt per split")
     parser.add_argument(
-        "--tasks",
-        nargs="+",
-        default=list(BENCHMARK_TASKS),
-        metavar="TASK",
-        help="TEACh task names (index i -> task i %% len)",
+        "--task",
+        action="append",
+        choices=BENCHMARK_TASKS,
+        help="a TEACh task to generate (repeat for several; index i -> task i %% count; default: all 12)",
     )
-    parser.add_argument("--seed-start", type=int, default=0, help="first index of each split")
+    parser.add_argument("--first-index", type=int_at_least(0), default=0, help="first index of each split")
     parser.add_argument("--images", action="store_true", help="also write the driver's JPEG frames")
     parser.add_argument(
-        "--camera", type=int, default=TEACH_IMAGE_SIDE, help="square camera side in pixels (TEACh: 900)"
+        "--camera",
+        type=int_at_least(32),
+        default=TEACH_IMAGE_SIDE,
+        help="square camera side in pixels (TEACh: 900)",
     )
     parser.add_argument(
-        "--edh-per-game", type=int, default=BuildConfig.edh_per_game, help="EDH instances per game at most"
+        "--edh-per-game",
+        type=int_at_least(1),
+        default=BuildConfig.edh_per_game,
+        help="EDH instances per game at most",
     )
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = _parser()
-    args = parser.parse_args(argv)
-    unknown = [t for t in args.tasks if t not in BENCHMARK_TASKS]
-    if unknown:
-        parser.error(f"unknown task(s) {unknown}; known: {', '.join(BENCHMARK_TASKS)}")
-    if args.n < 1 or args.camera < 32 or args.edh_per_game < 1 or args.seed_start < 0:
-        parser.error("--n and --edh-per-game must be ≥ 1, --camera ≥ 32 and --seed-start ≥ 0")
+    args = _parser().parse_args(argv)
+    tasks = tuple(args.task or BENCHMARK_TASKS)
     build = BuildConfig(
         camera=CameraSpec(args.camera, args.camera, TEACH_HFOV_DEG),
         look_step_deg=TEACH_LOOK_STEP_DEG,
@@ -205,7 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         images=args.images,
     )
     splits = SPLITS if args.split == "all" else (cast(Split, args.split),)
-    config = GenerateConfig(args.out, splits, args.n, tuple(args.tasks), args.seed_start, build)
+    config = GenerateConfig(args.out_dir, splits, args.n, tasks, args.first_index, build)
     tallies = generate(config)
     for split, tally in tallies.items():
         tqdm.write(

@@ -1,6 +1,6 @@
 """``python -m harness expert``: the expert's success rate per task, with failure reasons (issue 3 §5).
 
-``python -m harness expert [--seeds 25] [--tasks "Coffee" ...] [--alfred-limit N] [--no-alfred] [--quiet]
+``python -m harness expert [--n 25] [--task Coffee ...] [--alfred-limit N] [--no-alfred] [--quiet]
 [--out FILE]`` runs ``harness.expert.report.run_expert_report``, prints a line per episode and a table per
 suite, and exits 0 only when the bar is met: 95 % of each TEACh task's episodes, and of ALFRED valid_seen
 as a whole. ``bench.expert_success`` is the same command writing ``bench/results/expert_success.json``.
@@ -8,7 +8,6 @@ as a whole. ``bench.expert_success`` is the same command writing ``bench/results
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,6 +15,7 @@ from typing import Any
 
 from harness.expert.report import SUCCESS_BAR, EpisodeResult, run_expert_report
 from harness.tasks.teach import BENCHMARK_TASKS
+from symbolic.cli_args import Parser, int_at_least
 
 
 def _show(result: EpisodeResult) -> None:
@@ -41,32 +41,34 @@ def _table(title: str, tasks: dict[str, dict[str, Any]]) -> None:
 
 def main(argv: Sequence[str] | None = None, default_out: Path | None = None) -> int:
     """The expert's success rate per task with failure reasons; 0 when the bar is met, else 1."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="python -m harness expert", description="The expert's success rate per task (issue 3 §5)."
     )
-    parser.add_argument("--seeds", type=int, default=25, help="episodes per TEACh task (default 25)")
-    parser.add_argument("--tasks", nargs="*", default=list(BENCHMARK_TASKS), help="TEACh tasks to run")
-    parser.add_argument("--alfred-limit", type=int, default=None, help="ALFRED trajectories (default: all)")
+    parser.add_argument("--n", type=int_at_least(0), default=25, help="episodes (seeds) per TEACh task")
+    parser.add_argument(
+        "--task",
+        action="append",
+        choices=BENCHMARK_TASKS,
+        help="a TEACh task to run (repeat for several; default: all 12)",
+    )
+    parser.add_argument(
+        "--alfred-limit", type=int_at_least(0), default=None, help="ALFRED trajectories (default: all)"
+    )
     parser.add_argument("--no-alfred", action="store_true", help="skip ALFRED valid_seen")
     parser.add_argument("--quiet", action="store_true", help="no line per episode")
     parser.add_argument("--out", type=Path, default=default_out, help="write the JSON report here")
     args = parser.parse_args(argv)
-    unknown = [t for t in args.tasks if t not in BENCHMARK_TASKS]
-    if unknown:
-        parser.error(f"unknown task(s) {unknown}; known: {', '.join(BENCHMARK_TASKS)}")
-    if args.seeds < 0 or (args.alfred_limit is not None and args.alfred_limit < 0):
-        parser.error("--seeds and --alfred-limit must be ≥ 0")
     started = time.perf_counter()
     report = run_expert_report(
-        seeds=args.seeds,
-        tasks=args.tasks,
+        seeds=args.n,
+        tasks=args.task or list(BENCHMARK_TASKS),
         alfred_limit=args.alfred_limit,
         with_alfred=not args.no_alfred,
         out=args.out,
         progress=None if args.quiet else _show,
     )
     teach = report["teach"]["tasks"]
-    _table(f"TEACh, {args.seeds} seeds per task (bar {100 * SUCCESS_BAR:.0f} %)", teach)
+    _table(f"TEACh, {args.n} seeds per task (bar {100 * SUCCESS_BAR:.0f} %)", teach)
     if "tasks" in report["alfred"]:
         _table(
             f"ALFRED valid_seen: {report['alfred']['success_rate']} over {report['alfred']['trajectories']}",

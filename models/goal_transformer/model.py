@@ -19,6 +19,7 @@ from safetensors.torch import load_file, save_file
 from torch import nn
 
 from models.goal_transformer.encoder import ENCODER_NAME, FEATURE_DIM, INPUT_SIDE
+from models.portable_paths import portable_record
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import SubgoalAction
 from symbolic.thor import MOTION_ACTIONS
@@ -140,7 +141,11 @@ def save_goal_transformer(
     dtype = torch.float16 if half else torch.float32
     weights = directory / "model.safetensors"
     save_file({k: v.detach().to(dtype).contiguous() for k, v in model.state_dict().items()}, str(weights))
-    config = {"network": model.config.to_dict(), "dtype": str(dtype).removeprefix("torch."), **record}
+    config = {
+        "network": model.config.to_dict(),
+        "dtype": str(dtype).removeprefix("torch."),
+        **portable_record(record),  # no machine's folders (models.portable_paths)
+    }
     (directory / "config.json").write_text(json.dumps(config, indent=1))
     return weights
 

@@ -1,9 +1,10 @@
 """A perception network as a file: the U-Net, what its outputs mean, and how it was trained.
 
 A checkpoint directory holds ``model.safetensors`` (fp16 unless trained otherwise), ``config.json`` (the
-constructor arguments, the meaning of the outputs, the run config, the data fingerprint, the step) and a
-``MODEL_CARD.md``. The loader also takes a directory whose weights are a torch state dict
-(``model.pt``/``pytorch_model.bin``) beside the same config.json, for networks trained elsewhere.
+constructor arguments, the meaning of the outputs, the run config, the data fingerprint, the step; paths
+only relative to the repository, ``models.portable_paths``) and a model card, ``README.md``. The loader
+also takes a directory whose weights are a torch state dict (``model.pt``/``pytorch_model.bin``) beside the
+same config.json, for networks trained elsewhere.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from torch import nn
 from models.perception.colour import ColourBranch
 from models.perception.depth import DepthBins
 from models.perception.unet import UNet, UNetConfig
+from models.portable_paths import portable_record
 
 Task = Literal["depth", "segmentation"]
 Precision = Literal["auto", "float32", "bfloat16"]
@@ -172,9 +174,9 @@ def save_checkpoint(
         "network": model.config.to_dict(),
         "dtype": str(dtype).removeprefix("torch."),
         "step": info.step,
-        "run": info.run,
-        "data": info.data,
-        "metrics": info.metrics,
+        "run": portable_record(info.run),
+        "data": portable_record(info.data),
+        "metrics": portable_record(info.metrics),
     }
     (directory / "config.json").write_text(json.dumps(config, indent=1))
     return weights

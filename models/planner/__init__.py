@@ -11,4 +11,4 @@ from __future__ import annotations
 from pathlib import Path
 
 DEFAULT_CHECKPOINT_DIR = Path(__file__).resolve().parents[1] / "checkpoints" / "planner"
-"""The default trained planner shipped with the repository (see its MODEL_CARD.md)."""
+"""The default trained planner shipped with the repository (see its README.md, the model card)."""

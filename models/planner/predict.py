@@ -18,6 +18,7 @@ from typing import Literal
 
 from models.planner.config import GenerationConfig
 from models.planner.engines import DecodeSettings, make_decoder, resolve_engine
+from models.planner.hub import trained_input_length, writable_tokens
 from models.planner.modeling import (
     PlannerModel,
     encoder_positions,
@@ -94,18 +95,16 @@ def validate_generated_plan(text: str, ontology: Ontology) -> tuple[list[Subgoal
 def source_token_limit(planner: PlannerModel) -> int:
     """The input length the model was trained with (its run config), else its position table's size."""
     meta = read_planner_meta(planner.path) if planner.path is not None else {}
-    train_config = meta.get("train_config")
-    if isinstance(train_config, dict) and isinstance(train_config.get("max_source_tokens"), int):
-        return int(train_config["max_source_tokens"])
+    trained = trained_input_length(meta)
+    if trained is not None:
+        return trained
     return encoder_positions(planner.model) or DEFAULT_SOURCE_TOKENS
 
 
 def target_token_limit(planner: PlannerModel) -> int:
-    """Tokens the decoder can write: one less than its position table (BERT-style decoders index
-    positions by the cache length and fail past the table), or unlimited for models without one."""
-    decoder = getattr(planner.model.config, "decoder", None)
-    positions = getattr(decoder, "max_position_embeddings", None) if decoder is not None else None
-    return int(positions) - 1 if isinstance(positions, int) else 1_000_000
+    """Tokens the decoder can write (``hub.writable_tokens``), or unlimited for models without a table."""
+    limit = writable_tokens(planner.model.config)
+    return limit if limit is not None else 1_000_000
 
 
 NAVIGATE_BIAS_KEY = "navigate_bias"

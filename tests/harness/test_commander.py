@@ -244,7 +244,7 @@ def test_a_tatc_episode_with_the_commander_in_its_own_process(
         "Put All X On Y",
         "--index",
         "3",
-        "--json",
+        "--out",
         str(out),
     ]
     finished = subprocess.run(

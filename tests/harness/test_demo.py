@@ -14,7 +14,7 @@ DEMO_TIMEOUT_S = 600
 
 def test_demo_writes_the_map_gif_and_trace_and_prints_sr_and_gc(tmp_path: Path) -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "harness", "demo", "--out", str(tmp_path)],
+        [sys.executable, "-m", "harness", "demo", "--out-dir", str(tmp_path)],
         cwd=REPO,
         capture_output=True,
         text=True,

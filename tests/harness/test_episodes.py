@@ -37,6 +37,13 @@ from symbolic.data_dir import default_data_dir
 from symbolic.subgoals import subgoals_from_teach_actions, to_teach_words
 
 TASKS = ("Water Plant", "Coffee", "Plate Of Toast")
+
+
+def _task_flags(tasks: tuple[str, ...]) -> list[str]:
+    """``--task`` once per task, as the generator's command line takes several."""
+    return [flag for task in tasks for flag in ("--task", task)]
+
+
 GAMES_PER_SPLIT = 3
 
 
@@ -44,7 +51,8 @@ GAMES_PER_SPLIT = 3
 def out(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A few games per split, written through the command line."""
     out = tmp_path_factory.mktemp("generated")
-    assert main(["--out", str(out), "--split", "all", "--n", str(GAMES_PER_SPLIT), "--tasks", *TASKS]) == 0
+    argv = ["--out-dir", str(out), "--split", "all", "--n", str(GAMES_PER_SPLIT), *_task_flags(TASKS)]
+    assert main(argv) == 0
     return out
 
 
@@ -234,7 +242,7 @@ def test_dialogues_differ_between_games(out: Path) -> None:
 
 
 def test_generation_is_deterministic(out: Path, tmp_path: Path) -> None:
-    assert main(["--out", str(tmp_path), "--split", "valid_unseen", "--n", "1", "--tasks", *TASKS]) == 0
+    assert main(["--out-dir", str(tmp_path), "--split", "valid_unseen", "--n", "1", *_task_flags(TASKS)]) == 0
     for path in (tmp_path / "games" / "valid_unseen").glob("*.json"):
         assert path.read_bytes() == (out / "games" / "valid_unseen" / path.name).read_bytes()
     for path in (tmp_path / "edh_instances" / "valid_unseen").glob("*.json"):
@@ -242,7 +250,7 @@ def test_generation_is_deterministic(out: Path, tmp_path: Path) -> None:
 
 
 def test_images_are_written_when_asked(tmp_path: Path) -> None:
-    argv = ["--out", str(tmp_path), "--split", "train", "--n", "1", "--tasks", "Water Plant"]
+    argv = ["--out-dir", str(tmp_path), "--split", "train", "--n", "1", "--task", "Water Plant"]
     assert main([*argv, "--images", "--camera", "300"]) == 0
     (game_path,) = (tmp_path / "games" / "train").glob("*.json")
     game = json.loads(game_path.read_text())
@@ -255,7 +263,7 @@ def test_images_are_written_when_asked(tmp_path: Path) -> None:
 
 def test_the_command_line_rejects_unknown_tasks(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
-        main(["--out", str(tmp_path), "--n", "1", "--tasks", "Juggle"])
+        main(["--out-dir", str(tmp_path), "--n", "1", "--task", "Juggle"])
     error = capsys.readouterr().err
     assert "Juggle" in error and "Water Plant" in error
 

@@ -51,13 +51,13 @@ def _eval_command(out: Path, url: str, n: int, workers: int = 1) -> list[str]:
         str(n),
         "--workers",
         str(workers),
-        "--tasks",
+        "--task",
         SHORT_TASK,
         "--camera",
         str(SMALL_CAMERA_SIDE),
         "--url",
         url,
-        "--out",
+        "--run-dir",
         str(out),
     ]
 

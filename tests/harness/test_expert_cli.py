@@ -15,7 +15,7 @@ from harness.expert.cli import main
 def test_python_m_harness_expert_runs_and_writes_its_report(tmp_path: Path) -> None:
     out = tmp_path / "expert.json"
     done = subprocess.run(
-        [sys.executable, "-m", "harness", "expert", "--seeds", "1", "--tasks", "Coffee", "--no-alfred"]
+        [sys.executable, "-m", "harness", "expert", "--n", "1", "--task", "Coffee", "--no-alfred"]
         + ["--out", str(out)],
         capture_output=True,
         text=True,
@@ -31,7 +31,7 @@ def test_python_m_harness_expert_runs_and_writes_its_report(tmp_path: Path) -> N
 
 def test_an_unknown_task_is_refused_with_the_known_ones(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as stop:
-        main(["--tasks", "Make Pancakes", "--no-alfred"])
+        main(["--task", "Make Pancakes", "--no-alfred"])
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "Make Pancakes" in err and "Water Plant" in err

@@ -10,13 +10,11 @@ import dataclasses
 import pickle
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 import pytest
-from PIL import Image
 
 from agent.geometry import Camera
 from agent.perception.decode import decode_observation
@@ -33,7 +31,6 @@ from harness.client import (
     pose_of,
 )
 from harness.episodes.model import Episode
-from harness.gif import write_gif
 from harness.runner import (
     PlanProgress,
     RunnerOptions,
@@ -158,28 +155,6 @@ def test_plan_progress_starts_a_new_version_when_the_service_replans() -> None:
         (1, "Navigate Bread", "done"),
         (1, "Slice Bread", "done"),
     ]
-
-
-# ---- GIF ----------------------------------------------------------------------------------------------
-
-
-def test_gif_keeps_every_kth_frame_and_always_the_last(tmp_path: Path) -> None:
-    frames = [np.full((40, 60, 3), 40 * i, dtype=np.uint8) for i in range(5)]
-    path = write_gif(frames, tmp_path / "a.gif", captions=[f"step {i}" for i in range(5)], every=3)
-    with Image.open(path) as gif:
-        assert gif.n_frames == 3  # frames 0, 3 and the last one, 4
-        assert gif.size == (60, 40 + 14)  # caption strip under each frame
-
-
-def test_gif_frames_are_scaled_down_to_max_side(tmp_path: Path) -> None:
-    frames = [np.zeros((300, 400, 3), dtype=np.uint8)] * 2
-    with Image.open(write_gif(frames, tmp_path / "c.gif", max_side=200)) as gif:
-        assert gif.size == (200, 150)
-
-
-def test_gif_refuses_mismatched_captions(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="captions has 1 lines for 2 frames"):
-        write_gif([np.zeros((8, 8, 3), np.uint8)] * 2, tmp_path / "b.gif", captions=["x"])
 
 
 # ---- episodes through the real service ----------------------------------------------------------------

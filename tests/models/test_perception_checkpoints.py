@@ -34,10 +34,10 @@ def test_checkpoints_have_weights_config_and_a_model_card_and_fit_the_budget():
         directory = CHECKPOINTS / name
         config = json.loads((directory / "config.json").read_text())
         assert config["dtype"] == "float16"
-        card = (directory / "MODEL_CARD.md").read_text()
+        card = (directory / "README.md").read_text()
         missing = [s for s in CARD_SECTIONS if s not in card]
-        assert not missing, f"{name}/MODEL_CARD.md lacks {missing}"
-        total += sum(path.stat().st_size for path in directory.iterdir())
+        assert not missing, f"{name}/README.md lacks {missing}"
+        total += sum(path.stat().st_size for path in directory.rglob("*") if path.is_file())
     assert total <= BUDGET_BYTES, f"checkpoints take {total / 2**20:.1f} MiB"
 
 

@@ -133,7 +133,7 @@ def test_add_colour_fits_an_expert_that_names_more_pixels_and_keeps_the_unet(
         [
             "add-colour",
             *("--checkpoint", str(tiny_models["segmentation"]), "--frames", str(frames_dir)),
-            *("--out", str(out), "--valid", str(frames_dir), "--eval-side", "64"),
+            *("--out-dir", str(out), "--valid", str(frames_dir), "--eval-side", "64"),
             *("--hidden", "16", "--pixels", "20000", "--epochs", "20", "--threads", "1"),
         ]
     )
@@ -196,14 +196,14 @@ def test_render_data_passes_every_option_to_the_harness_renderer(tmp_path: Path)
 
     out = tmp_path / "frames"
     code = main(
-        ["render-data", "--out", str(out), "--split", "valid_unseen", "--worlds", "1", "--per-world", "2"]
+        ["render-data", "--out-dir", str(out), "--split", "valid_unseen", "--worlds", "1", "--per-world", "2"]
         + ["--size", "64", "--seed", "5", "--focus-share", "0.5", "--held-share", "1.0"]
     )
     assert code == 0
     meta = json.loads((out / "meta.json").read_text())
     assert (meta["split"], meta["frames"], meta["camera"]["width"]) == ("valid_unseen", 2, 64)
     assert (meta["seed"], meta["focus_share"], meta["held_share"]) == (5, 0.5, 1.0)
-    assert main(["render-data", "--out", str(tmp_path / "bad"), "--worlds", "many"]) != 0
+    assert main(["render-data", "--out-dir", str(tmp_path / "bad"), "--worlds", "many"]) != 0
 
 
 def test_harness_frames_follow_the_documented_layout(frames_dir: Path):

@@ -69,7 +69,7 @@ def test_a_soup_of_one_part_answers_as_that_part_does(lineage: tuple[Path, Path]
             *map(str, lineage),
             "--weights",
             share,
-            "--out",
+            "--out-dir",
             str(out),
             "--fp32",
         ]
@@ -113,7 +113,7 @@ def test_the_command_line_names_a_bad_weight_list_and_writes_nothing(
         str(second),
         "--weights",
         "1",
-        "--out",
+        "--out-dir",
         str(tmp_path / "soup"),
     ]
     with pytest.raises(SystemExit, match="2 checkpoints need 2 weights"):

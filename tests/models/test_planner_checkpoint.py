@@ -31,10 +31,11 @@ def test_the_default_checkpoint_is_complete_and_within_budget() -> None:
         "model.safetensors",
         "tokenizer.json",
         "planner_meta.json",
-        "MODEL_CARD.md",
+        "README.md",
+        "HISTORY.md",
     } <= files
     assert "optimizer.pt" not in files
-    size = sum(path.stat().st_size for path in DEFAULT_CHECKPOINT_DIR.iterdir())
+    size = sum(path.stat().st_size for path in DEFAULT_CHECKPOINT_DIR.rglob("*") if path.is_file())
     assert size <= MAX_CHECKPOINT_BYTES, f"default planner is {size / 2**20:.1f} MiB"
     meta = read_planner_meta(DEFAULT_CHECKPOINT_DIR)
     assert meta["weights_dtype"] == "float16"
@@ -42,7 +43,7 @@ def test_the_default_checkpoint_is_complete_and_within_budget() -> None:
 
 
 def test_the_model_card_quotes_the_written_evaluation() -> None:
-    card = (DEFAULT_CHECKPOINT_DIR / "MODEL_CARD.md").read_text(encoding="utf-8")
+    card = (DEFAULT_CHECKPOINT_DIR / "README.md").read_text(encoding="utf-8")
     results = json.loads((DEFAULT_CHECKPOINT_DIR / "evaluation.json").read_text(encoding="utf-8"))
     for report in results["sets"]:
         assert report["name"] in card
@@ -76,7 +77,13 @@ def test_a_chilling_instruction_goes_through_the_fridge(generator: SubgoalGenera
     assert plan.index(Subgoal(A.PLACE, "Fridge")) < plan.index(Subgoal(A.PLACE, "CounterTop"))
 
 
-def test_evaluate_refuses_a_handwritten_file_that_is_not_there(tmp_path: Path) -> None:
-    """A mistyped path once skipped the hand-written set without a word; the metrics file then lacked it."""
-    with pytest.raises(SystemExit, match="no such file"):
+def test_evaluate_refuses_a_handwritten_file_that_is_not_there(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A mistyped path once skipped the hand-written set without a word; the metrics file then lacked it.
+    Now it is one line naming the file, and exit code 2, before anything loads."""
+    with pytest.raises(SystemExit) as stopped:
         planner_cli(["evaluate", "--handwritten", str(tmp_path / "missing.jsonl")])
+    assert stopped.value.code == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "missing.jsonl" in error

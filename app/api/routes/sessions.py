@@ -1,4 +1,8 @@
-"""``/v1/sessions``: create, read, delete a session and add utterances (DESIGN.md §4)."""
+"""``/v1/sessions``: create, read, delete a session and add utterances (DESIGN.md §4).
+
+Reads (the session, its trace, its map) are served from the view the last completed change published
+(``app.live_view``): they never wait on, nor are refused by, a step in progress.
+"""
 
 from __future__ import annotations
 
@@ -7,9 +11,10 @@ import uuid
 from datetime import UTC, datetime
 from typing import Annotated
 
+import anyio.to_thread
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import CallerDep, OntologyDep, SessionDep, SettingsDep, StoreDep
+from app.api.deps import CallerDep, OntologyDep, SessionDep, SettingsDep, StoreDep, ViewDep
 from app.api.responses import error_responses
 from app.limits import check_dialogue
 from app.ownership import owner_cap, too_many_sessions
@@ -71,12 +76,11 @@ def list_sessions(store: StoreDep, caller: CallerDep) -> SessionList:
 @router.get(
     "/{session_id}",
     response_model=SessionPublic,
-    responses=error_responses(401, 404, 409, 410, 422, 429, 503),
+    responses=error_responses(401, 404, 422, 429, 503),
     summary="Read a session: configuration, dialogue, plan and progress",
 )
-def read_session(handle: SessionDep) -> SessionPublic:
-    with handle.hold() as held:
-        return session_public(held.session)
+async def read_session(view: ViewDep) -> Response:
+    return Response(content=view.public_json, media_type="application/json")
 
 
 @router.delete(
@@ -129,16 +133,20 @@ def add_utterance(body: UtteranceCreate, handle: SessionDep, settings: SettingsD
             "statistics, subgoal, action and the predicate or rule that chose it, server timings.",
             "content": {TRACE_MEDIA_TYPE: {"schema": {"type": "string"}}},
         },
-        **error_responses(401, 404, 409, 410, 422, 429, 503),
+        **error_responses(401, 404, 422, 429, 503),
     },
     summary="Read the step trace as ndjson (one line per step)",
 )
-def read_trace(
-    handle: SessionDep,
+async def read_trace(
+    session_id: str,
+    store: StoreDep,
+    caller: CallerDep,
     since: Annotated[int | None, Query(ge=0, description="Only steps from this index on.")] = None,
 ) -> Response:
-    with handle.hold() as held:
-        lines = list(held.session.trace.lines(since))
+    try:
+        lines = await store.trace_lines(session_id, caller.owner, since)
+    except SessionNotFound as error:
+        raise session_not_found(session_id) from error
     body = "".join(f"{line}\n" for line in lines)
     return Response(content=body, media_type=TRACE_MEDIA_TYPE)
 
@@ -152,11 +160,11 @@ def read_trace(
             "object class in its colour, the agent, its planned path, the current target, and a legend.",
             "content": {"image/png": {"schema": {"type": "string", "format": "binary"}}},
         },
-        **error_responses(401, 404, 409, 410, 422, 429, 503),
+        **error_responses(401, 404, 422, 429, 503),
     },
     summary="Draw the session's semantic map as a PNG",
 )
-def read_map(handle: SessionDep) -> Response:
-    with handle.hold() as held:
-        picture = held.session.map_png()
+async def read_map(view: ViewDep) -> Response:
+    # Drawn once per view (about 6 ms): off the event loop the first time.
+    picture = view.map_png() if view.map_drawn else await anyio.to_thread.run_sync(view.map_png)
     return Response(content=picture, media_type="image/png")

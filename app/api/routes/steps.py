@@ -181,6 +181,7 @@ async def step(
                 decision = session.step_once(observation)
             except ObservationError as error:
                 raise observation_error(error) from error
+            held.new_frame = observation.rgb  # the live view shows it (app.live_view)
             answer = step_result(decision)
             metrics.observe_step(decoded - decoding, step_timing_ms(session, decision.step))
         return answer, (time.perf_counter() - started) * 1e3
