@@ -6,6 +6,9 @@ against the belief after the history. Here the generation is validated first (``
 names outside the ontology are mapped to the nearest type or dropped, and each such decision enters the
 repair log as a ``RepairEvent`` (rules ``model-output-mapped`` / ``model-output-dropped``, ``index`` being the
 item's position in the generated text), so the session's trace shows it beside the rules that fired.
+Between validation and repair the plan is made to cover what the commander asked for in number
+(``symbolic.request_cover``: "two plates", "a mug and a pan"; rules ``request-count`` and
+``request-conjunction``), because the model plans one object where people ask for several (issue 62).
 
 The model is loaded once per process and checkpoint (``load_generator`` is cached) and shared by every
 session; importing this module loads no model and no torch.
@@ -28,6 +31,8 @@ from models.planner.text import format_planner_input
 from symbolic.commands import CommandItem, format_command, parse_command
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.repair import RepairEvent, repair_plan
+from symbolic.request_cover import cover_request
+from symbolic.request_words import object_words, read_request
 from symbolic.subgoals import Subgoal, SubgoalSyntaxError, format_subgoals
 
 if TYPE_CHECKING:
@@ -84,6 +89,13 @@ def planner_source(context: PlanningContext) -> str:
     return format_planner_input(turns, context.history_subgoals, context.instruction)
 
 
+def commander_words(context: PlanningContext) -> list[str]:
+    """What the commander said, in order (the instruction first): the words a plan must cover in number
+    (``symbolic.request_cover``); the driver's turns ask questions and report, they request nothing."""
+    said = [turn.text for turn in context.dialogue if turn.speaker == "Commander"]
+    return [context.instruction, *said] if context.instruction else said
+
+
 def _truncated(plan: list[Subgoal], limit: int, stage: str) -> tuple[list[Subgoal], list[RepairEvent]]:
     if len(plan) <= limit:
         return plan, []
@@ -131,9 +143,11 @@ class ModelPlanner:
             observer(time.perf_counter() - started)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
+        request = read_request(commander_words(context), object_words(self.ontology))
+        plan, asked = cover_request(plan, request, self.ontology, context.history_subgoals)
         repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
         final, cut_after = _truncated(repaired.plan, self.config.max_subgoals, "repaired")
-        log = (*events, *cut, *repaired.log, *cut_after)
+        log = (*events, *cut, *asked, *repaired.log, *cut_after)
         LOG.info(
             "model plan: %d generated, %d after repair, %d validation changes, %d repairs: %s",
             len(prediction.subgoals),

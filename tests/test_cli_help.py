@@ -38,6 +38,7 @@ COMMANDS: list[tuple[str, list[str]]] = [
     *[("models.planner", [name]) for name in ("average", "export")],
     *[("models.perception", [name]) for name in ("", "train", "add-colour", "evaluate")],
     *[("models.goal_transformer", [name]) for name in ("", "render-data", "train", "evaluate")],
+    ("symbolic.mine_lexicon", []),
     ("bench", []),
     *[("bench." + name, []) for name in bench_commands()],
 ]
