@@ -23,21 +23,12 @@ from urllib.parse import urlsplit
 
 import httpx
 import pytest
+from browser_support import CHROMIUM, CHROMIUM_ARGS
 
 from app.doc_examples import EXAMPLE_SESSION_CREATE, EXAMPLE_STEP
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "out"
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 STEP_PATH = "/v1/sessions/{session_id}/step"
 STARTUP_TIMEOUT_S = 60.0

@@ -17,21 +17,12 @@ from typing import Any
 
 import httpx
 import pytest
+from browser_support import CHROMIUM, CHROMIUM_ARGS
 
 from harness.client import AgentClient
 from harness.runner import ActionRecord, RunnerOptions, generated_tfd_episode, run_episode
 from harness.service import running_service
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 SCREENSHOT = Path(__file__).resolve().parents[2] / "out" / "live_page.png"
 MAX_STEPS = 60
 PAGE_TIMEOUT_MS = 15_000
