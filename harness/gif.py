@@ -37,7 +37,17 @@ PALETTE_SAMPLES = 16  # pictures the episode's palette is made from, spread over
 DENOISE_DIAMETER_PX = 5  # bilateral filter: neighbourhood of the sensor-noise smoothing
 DENOISE_SIGMA_COLOUR = 20.0  # intensity steps smoothed over; object edges differ by far more
 DENOISE_SIGMA_SPACE = 5.0
-ASCII_FOR: dict[str, str] = {"→": "->", "≥": ">=", "≤": "<=", "×": "x", "−": "-", "θ": "theta"}
+ASCII_FOR: dict[str, str] = {
+    "→": "->",
+    "≥": ">=",
+    "≤": "<=",
+    "×": "x",
+    "−": "-",
+    "θ": "theta",
+    "∧": "and",  # Table 5's predicates in a reason: "Target(Plate) ∧ ¬Near(Plate)"
+    "¬": "not ",
+    "·": "*",
+}
 """Symbols the service's reasons use that Pillow's built-in font has no glyph for."""
 
 
@@ -97,7 +107,7 @@ def _map_in_box(map_rgb: np.ndarray, width: int, height: int) -> Image.Image:
     return box
 
 
-def _fitted(line: str, font: ImageFont.FreeTypeFont | ImageFont.ImageFont, width: float) -> str:
+def fitted_caption(line: str, font: ImageFont.FreeTypeFont | ImageFont.ImageFont, width: float) -> str:
     """``line`` in glyphs the font has, cut with an ellipsis where it would run past ``width`` pixels."""
     line = "".join(ASCII_FOR.get(char, char) for char in line)
     if font.getlength(line) <= width:
@@ -134,7 +144,7 @@ def compose_picture(
     draw = ImageDraw.Draw(canvas)
     font = ImageFont.load_default(CAPTION_FONT_PX)
     for k, line in enumerate(picture.caption):
-        text = _fitted(line, font, width - 8)
+        text = fitted_caption(line, font, width - 8)
         draw.text((4, H + 2 + k * CAPTION_LINE_PX), text, fill=CAPTION_COLOUR, font=font)
     return canvas
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import Image, ImageFont
 
 from harness.demo import MapRecordingClient, episode_pictures
 from harness.gif import (
@@ -18,6 +18,7 @@ from harness.gif import (
     GAP_PX,
     StepPicture,
     compose_picture,
+    fitted_caption,
     write_episode_gif,
 )
 from harness.runner import EpisodeRun, RunnerOptions, generated_tfd_episode, run_episode
@@ -131,3 +132,10 @@ def test_the_episode_gif_shows_full_frames_beside_the_map(
     with Image.open(path) as gif:
         assert gif.n_frames == len(run.frames)
         assert gif.width >= W + GAP_PX + map_width and gif.height > H
+
+
+def test_a_reason_in_logic_symbols_is_captioned_in_words_the_font_can_draw() -> None:
+    """Pillow's built-in font draws a box for "∧" and "¬"; the service's reasons use both (Table 5)."""
+    font = ImageFont.load_default(13)
+    line = fitted_caption("why: Target(Plate) ∧ ¬Near(Plate): approach", font, 10_000)
+    assert line == "why: Target(Plate) and not Near(Plate): approach"
