@@ -12,26 +12,21 @@ from __future__ import annotations
 import json
 import os
 import re
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 from urllib.parse import urlsplit
 
-import httpx
 import pytest
 from browser_support import CHROMIUM, CHROMIUM_ARGS
 
 from app.doc_examples import EXAMPLE_SESSION_CREATE, EXAMPLE_STEP
+from harness.service import running_service
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "out"
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 STEP_PATH = "/v1/sessions/{session_id}/step"
-STARTUP_TIMEOUT_S = 60.0
 RENDER_TIMEOUT_MS = 30_000
 
 
@@ -56,35 +51,9 @@ def _missing(what: str) -> NoReturn:
 @pytest.fixture(scope="module")
 def service_url() -> Iterator[str]:
     """The service as ``make serve`` runs it, on a free loopback port."""
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = int(probe.getsockname()[1])
-    env = {
-        **os.environ,
-        "JARVIS_HOST": "127.0.0.1",
-        "JARVIS_PORT": str(port),
-        "JARVIS_PRELOAD_MODELS": "false",  # the docs and the oracle example need no model
-        "JARVIS_LOG_LEVEL": "warning",
-    }
-    server = subprocess.Popen(
-        [sys.executable, "-m", "app"], cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
-    )
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            assert server.poll() is None, f"the service exited with {server.returncode}"
-            try:
-                if httpx.get(f"{url}/healthz", timeout=1.0).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, f"no answer at {url} after {STARTUP_TIMEOUT_S} s"
-            time.sleep(0.2)
-        yield url
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
+    # The docs and the oracle example need no model.
+    with running_service(env={"JARVIS_PRELOAD_MODELS": "false", "JARVIS_LOG_LEVEL": "warning"}) as service:
+        yield service.base_url
 
 
 @pytest.fixture
