@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 
-.PHONY: setup test test-slow lint serve demo bench clean browser
+.PHONY: setup test test-slow check-results lint serve demo bench clean browser
 
 setup: $(STAMP)
 
@@ -47,10 +47,13 @@ $(CHROMIUM):
 browser: $(CHROMIUM)
 
 test: lint browser
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not results"
 
 test-slow: $(STAMP)
 	$(PY) -m pytest -q -m slow
+
+check-results: $(STAMP)
+	$(PY) -m pytest -q -m results tests/bench/test_results_stamped.py
 
 serve: $(STAMP)
 	JARVIS_HOST=$(HOST) JARVIS_PORT=$(PORT) $(PY) -m app

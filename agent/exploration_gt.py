@@ -4,9 +4,9 @@ JARVIS Algorithm 3 (line 79): when FindInMap fails, the next action is the Goal 
 from the frames and actions since the search began and the future subgoals. Its appendix adds the
 collision rule: after a blocked move, if the transformer proposes the same move again, take a random
 other motion instead. We also let the map veto moves into cells it knows are blocked (the next likeliest
-action is taken), which the transformer cannot see from one frame. Decisions have the frontier
-explorer's shape (``ExploreDecision``), so the executor can use either; a session picks one with its
-``explorer`` option (``frontier`` or ``goal_transformer``).
+action is taken), which the transformer cannot see from one frame. It follows the frontier explorer's
+contract (``agent.navigation.exploration.Explorer``), so the search can use either; a session picks one
+with its ``explorer`` option (``agent.explorers``).
 """
 
 from __future__ import annotations
@@ -24,12 +24,11 @@ from agent.navigation.base import (
     MOVE_SIDES,
     STEPS,
     GridFrame,
-    NavGrids,
     agent_cell,
     cells_per_step,
     heading_of,
 )
-from agent.navigation.exploration import ExploreDecision
+from agent.navigation.exploration import ExploreDecision, ExploreInput
 
 if TYPE_CHECKING:
     from models.goal_transformer.policy import GoalPolicy
@@ -39,6 +38,8 @@ DEFAULT_CHECKPOINT = Path(models.__file__).resolve().parent / "checkpoints" / "g
 
 @dataclass(frozen=True)
 class GoalExplorerConfig:
+    """Which goal transformer explores, how much of the search it sees, and whether the map may veto it."""
+
     checkpoint: Path = DEFAULT_CHECKPOINT
     max_history: int = 32  # steps of frames and actions kept (the oldest are dropped)
     veto_blocked_moves: bool = True  # replace a move into a mapped obstacle by the next likeliest action
@@ -56,6 +57,8 @@ class _Search:
 class GoalTransformerExplorer:
     """Per-session explorer over a shared, loaded goal transformer; deterministic given ``rng``."""
 
+    reads_rgb = True
+
     def __init__(
         self,
         rng: np.random.Generator,
@@ -72,26 +75,15 @@ class GoalTransformerExplorer:
         self._search: _Search | None = None
         self._last_action: str | None = None
 
-    def reset(self) -> None:
-        """Forget the current search (the executor calls this when the target was found or changed)."""
-        self._search, self._last_action = None, None
-
-    def next_action(
-        self,
-        grids: NavGrids,
-        frame: GridFrame,
-        pose: Pose,
-        *,
-        rgb: np.ndarray,
-        subgoals: Sequence[tuple[str, str]],
-        last_action_success: bool | None,
-    ) -> ExploreDecision:
-        """The next motion toward where the target of ``subgoals[0]`` may be (JARVIS eq. (3)).
-
-        ``rgb`` is this step's frame, ``subgoals`` the future subgoals as (action, object type) with the
-        current one first; ``last_action_success`` is whether this explorer's previous action worked.
-        """
-        key = tuple((str(a), str(o)) for a, o in subgoals)
+    def next_action(self, seen: ExploreInput) -> ExploreDecision:
+        """The next motion toward where the target of ``seen.subgoals[0]`` may be (JARVIS eq. (3)), from
+        this step's frame (ValueError without one: the transformer sees nothing else) and the frames since
+        the search for that target began; ``seen.last_action_success`` is whether this explorer's previous
+        action worked."""
+        rgb, frame, pose = seen.rgb, seen.frame, seen.pose
+        if rgb is None:
+            raise ValueError("rgb: the goal transformer explores from this step's frame; none was given")
+        key = tuple((str(a), str(o)) for a, o in seen.subgoals)
         if self._search is None or self._search.subgoals != key:
             self._search, self._last_action = _Search(key), None
         search = self._search
@@ -100,8 +92,8 @@ class GoalTransformerExplorer:
         del search.features[: -self.config.max_history], search.previous[: -self.config.max_history]
         scores = self._policy.scores(key, np.stack(search.features), search.previous)
         ranked = [self._policy.actions[i] for i in np.argsort(-scores, kind="stable")]
-        failed = self._last_action if last_action_success is False else None
-        blocked = grids.blocked() if self.config.veto_blocked_moves else None
+        failed = self._last_action if seen.last_action_success is False else None
+        blocked = seen.grids.blocked() if self.config.veto_blocked_moves else None
 
         def into_obstacle(action: str) -> bool:
             return (

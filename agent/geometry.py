@@ -1,7 +1,7 @@
 """The agent's camera and body geometry in AI2-THOR's frame, and dead reckoning.
 
-Conventions (the harness renderer uses the same ones, ``harness/camera.py``): x and z are horizontal, y is
-up with the floor at y = 0; yaw 0 faces +z and yaw 90 faces +x, so the forward vector is
+Conventions (the harness renderer uses the same ones, ``harness/render/camera.py``): x and z are horizontal, y
+is up with the floor at y = 0; yaw 0 faces +z and yaw 90 faces +x, so the forward vector is
 (sin θ, 0, cos θ) and the right vector (cos θ, 0, −sin θ); a positive horizon looks down. The camera is a
 pinhole built from the HORIZONTAL field of view, fx = fy = (W/2)/tan(hfov/2), principal point at the image
 centre, pixel (row r, col c) spanning [c, c+1) × [r, r+1); depth is z-depth along the optical axis, in

@@ -8,21 +8,23 @@ seed's ablations feed ground-truth subgoals) and runs the same repair, so the ru
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import MappingProxyType
-from typing import Literal, Protocol
+from typing import Literal, Protocol, get_args
 
 from symbolic.belief import BeliefState
 from symbolic.commands import CommandItem
 from symbolic.ontology import Ontology
-from symbolic.predicates import POUR_BASINS
-from symbolic.repair import RepairEvent, repair_plan
+from symbolic.registry import Registry
+from symbolic.repair import ASSUME_FILLED, RepairEvent, repair_plan
 from symbolic.subgoals import Subgoal, SubgoalAction, parse_subgoals
 
 Speaker = Literal["Commander", "Driver"]
 """TEACh's speaker names (``dialog_history``); TATC's "Follower" is the Driver."""
+
+PlannerName = Literal["model", "oracle"]
+"""The learned language planner, or subgoals given by the caller."""
 
 PlanSource = Literal["oracle", "model", "commander", "none"]
 """Who made the current plan: given subgoals, the language model, or nobody yet."""
@@ -100,14 +102,8 @@ class PlanTooLong(ValueError):
         self.stage = stage
 
 
-class UnknownPlanner(LookupError):
-    """No planner of this name is available in this build; ``known`` lists those that are."""
-
-    def __init__(self, name: str, known: Sequence[str], why: str | None = None) -> None:
-        super().__init__(why or f"no planner named {name!r}; available planners: {', '.join(known)}")
-        self.name = name
-        self.known = tuple(known)
-        self.why = why
+class PlannerUnavailable(RuntimeError):
+    """A known planner that this installation cannot build (the language planner without its checkpoint)."""
 
 
 def belief_after(history: Sequence[Subgoal], ontology: Ontology) -> BeliefState:
@@ -130,13 +126,13 @@ def assume_poured_containers_filled(
     state = belief.copy()
     for index, subgoal in enumerate(plan):
         held = state.held
-        emptying = subgoal.action is SubgoalAction.POUR and subgoal.obj in POUR_BASINS
+        emptying = subgoal.action is SubgoalAction.POUR and subgoal.obj in ontology.pour_basins
         if emptying and held is not None and held not in state.filled:
             belief.filled.add(held)
             state.filled.add(held)
             events.append(
                 RepairEvent(
-                    "assume-filled",
+                    ASSUME_FILLED,
                     index,
                     f"the plan pours from the {held}, so the {held} holds liquid",
                     removed=(),
@@ -182,23 +178,17 @@ def _model_planner(ontology: Ontology, config: PlannerConfig) -> Planner:
     try:
         return ModelPlanner(ontology, config)
     except OSError as error:  # a missing or unreadable checkpoint
-        why = f"the language planner's checkpoint cannot be loaded: {error}"
-        raise UnknownPlanner("model", ("oracle",), why) from error
+        raise PlannerUnavailable(f"the language planner's checkpoint cannot be loaded: {error}") from error
 
 
-_PLANNER_FACTORIES: Mapping[str, Callable[[Ontology, PlannerConfig], Planner]] = MappingProxyType(
-    {"oracle": OraclePlanner, "model": _model_planner}
+PlannerFactory = Callable[[Ontology, PlannerConfig], Planner]
+
+PLANNERS: Registry[PlannerFactory] = Registry(
+    "planner", {"model": _model_planner, "oracle": OraclePlanner}, names=get_args(PlannerName)
 )
 
 
-def available_planners() -> tuple[str, ...]:
-    """Names ``make_planner`` accepts in this build."""
-    return tuple(sorted(_PLANNER_FACTORIES))
-
-
 def make_planner(name: str, ontology: Ontology, config: PlannerConfig | None = None) -> Planner:
-    """The planner registered as ``name``; UnknownPlanner lists the available ones."""
-    factory = _PLANNER_FACTORIES.get(name)
-    if factory is None:
-        raise UnknownPlanner(name, available_planners())
-    return factory(ontology, config or PlannerConfig())
+    """The planner registered as ``name``; UnknownName lists the known ones, PlannerUnavailable says why a
+    known one cannot be built here."""
+    return PLANNERS.get(name)(ontology, config or PlannerConfig())

@@ -3,10 +3,11 @@
 JARVIS (seed 002) Algorithm 1 keeps exactly this between simulator steps: the future subgoals
 ``G_future`` with their ``pointer``, the semantic map, the step count and whether it must stop; each step
 runs Algorithm 3. One step here (DESIGN.md §3): infer the last action's success -> the pose (the caller's,
-or dead reckoning) -> perception (the current subgoal's object is the target of HLSM eq. (5)) -> record a
-blocked move -> map update (HLSM eq. (1)) -> the executor decides -> a trace entry. Everything that can
-refuse the input (perception included) runs before anything changes, so a refused step leaves the
-session as it was.
+or dead reckoning) -> perception (the current subgoal's object is the target of HLSM eq. (5)) -> the
+executor judges the last action once (what the hand now holds) -> record a blocked move -> map update
+(HLSM eq. (1)) -> the executor decides (and, when its decision asks for it, the planner re-plans and the
+executor pursues the new plan) -> a trace entry. Everything that can refuse the input (perception included)
+runs before anything changes, so a refused step leaves the session as it was.
 
 Frames. The map lives in the agent's own frame. Without an EDH history it is the caller's world frame
 (the first pose, or the origin when poses never come). With a history replayed from an unknown start, the
@@ -34,27 +35,26 @@ from agent.executor import (
     FrameDigest,
     Hint,
     HistoryStep,
-    SessionMapView,
+    ReplanReason,
     StepInputs,
     SuccessConfig,
     digest,
     history_poses,
     holding_before,
     infer_success,
-    instance_colour,
 )
-from agent.executor.config import DEFAULT_EXPLORER, STAND_CLEARANCE_M, ExplorerName
+from agent.executor.config import STAND_CLEARANCE_M
+from agent.explorers import DEFAULT_EXPLORER, ExplorerName
 from agent.geometry import Camera, Pose, depth_to_points, track_pose
 from agent.mapping import MapConfig, SemanticMap, render_map_png
-from agent.navigation import make_navigator
-from agent.navigation.base import Navigator
-from agent.navigation.fmm import FmmConfig, FmmNavigator
+from agent.navigation import NavigatorName, make_navigator
 from agent.perception import (
     HandRegion,
     NetworkPaths,
     Observation,
     ObservationError,
     Perception,
+    PerceptionName,
     make_perception,
     without_hand,
 )
@@ -84,15 +84,6 @@ from symbolic.thor import (
 Mode = Literal["edh", "tfd", "tatc", "instruction"]
 """TEACh's Execution from Dialogue History, Trajectory from Dialogue, Two-Agent Task Completion; ALFRED."""
 
-PerceptionName = Literal["oracle", "learned"]
-"""Oracle: the caller sends depth and instance segmentation; learned: RGB only, networks estimate the rest."""
-
-NavigatorName = Literal["fmm", "vin"]
-"""JARVIS's fast marching on the 2D map, or HLSM's value-iteration navigation."""
-
-PlannerName = Literal["model", "oracle"]
-"""The learned language planner, or subgoals given by the caller."""
-
 START_HORIZON_DEG: dict[str, float] = {"instruction": 30.0}
 """Camera pitch assumed at the start when the caller sends no pose: ALFRED starts looking 30° down;
 TEACh's agents (and our harness) start level, which is the default for the other modes."""
@@ -113,7 +104,7 @@ class SessionLimits:
 
     max_steps: int = MAX_STEPS  # actions per episode
     max_failed_actions: int = MAX_FAILED_ACTIONS  # failed actions per episode
-    max_progress_replans: int = 4  # re-plans after the plan ran out or a subgoal failed (``replan_reason``)
+    max_progress_replans: int = 4  # re-plans after the plan ran out or a subgoal failed (``_replan_reason``)
 
 
 @dataclass(frozen=True)
@@ -245,7 +236,7 @@ class AgentSession:
         look_step = ALFRED_LOOK_STEP_DEG if mode == "instruction" else TEACH_LOOK_STEP_DEG
         executor = Executor(
             ontology,
-            build_navigator(navigator, STAND_CLEARANCE_M),
+            make_navigator(navigator, STAND_CLEARANCE_M),
             belief_after(history_subgoals, ontology),
             np.random.default_rng(seed),
             ExecutorConfig(
@@ -302,14 +293,14 @@ class AgentSession:
             self.repair_log = list(outcome.repair_log)
             self.pointer = 0
             self.done = False
-            self.executor.state.retry.clear()  # the new plan is the planner's word on what is left
             self._adopt_hints(outcome)
         self.dialogue.append(turn)
         self.updated_at = now or datetime.now(UTC)
         return replanned
 
     def _adopt_hints(self, outcome: PlanOutcome) -> None:
-        """The commander's stand and click hints of a new plan, stand poses in the map's frame."""
+        """A new plan for the executor, with the commander's stand and click hints, stand poses in the map's
+        frame."""
         hints = []
         for item in outcome.hints:
             stand = look = None
@@ -318,7 +309,7 @@ class AgentSession:
                 look = item.stand.horizon
             click = (item.click.x, item.click.y) if item.click is not None else None
             hints.append(Hint(item.subgoal, stand, look, click))
-        self.executor.state.hints = hints
+        self.executor.new_plan(hints)
 
     def current_subgoal(self) -> Subgoal | None:
         """The subgoal at the pointer, or None when the plan is exhausted."""
@@ -333,10 +324,10 @@ class AgentSession:
         history), and repairs from what the agent believes now (it may hold what the last plan picked up)."""
         return PlanningContext(
             dialogue=tuple(dialogue),
-            history_subgoals=(*self.history_subgoals, *self.executor.state.completed),
+            history_subgoals=(*self.history_subgoals, *self.executor.completed),
             instruction=self.instruction,
             given_subgoals=self.given_subgoals,
-            belief=self.executor.state.belief,
+            belief=self.executor.belief,
         )
 
     # ----- one step ----------------------------------------------------------------------------------
@@ -363,7 +354,7 @@ class AgentSession:
             poses=(self.last_world_pose, mapped_pose)
             if self.last_world_pose is not None and mapped_pose is not None
             else None,
-            colours=self._clicked_colours(obs, frame_digest),
+            colours=self.executor.clicked_colours(obs, frame_digest),
             config=self.success_config,
         )
         pose = self._pose_now(mapped_pose, success.success)
@@ -384,47 +375,32 @@ class AgentSession:
                 FrameAlignment.between(obs.pose, pose) if self.dead_reckoned else FrameAlignment()
             )
             self.dead_reckoned = False
-        self._sync_hand(obs)
+        verdict = self.executor.judge(success.success, self.plan, held_object=obs.held_object)
         semantic_map = self._ensure_map(pose)
-        for hint in self.executor.state.hints:  # places the commander sent it to, seen or not yet
-            if hint.stand is not None:
-                semantic_map.cover(hint.stand.x, hint.stand.z)
+        for stand in self.executor.hint_stands():  # places the commander sent it to, seen or not yet
+            semantic_map.cover(stand.x, stand.z)
         previous = self.pose
         if self.last_action in MOVES and success.success is False and previous is not None:
-            semantic_map.record_collision(previous, self.last_action)
-            self.executor.navigator.record_collision(previous, self.last_action, semantic_map.frame)
-        holding = self._holding_now(success.success)
-        held_type = self._held_type_now(success.success) if holding else None
+            semantic_map.record_collision(previous, self.last_action)  # JARVIS Alg. 3 l. 66, remembered once
         hand_class_ids = None
-        if holding and percept.depth_far is not None:  # estimated depth cannot tell the hand by nearness
+        if (
+            verdict.holding and percept.depth_far is not None
+        ):  # estimated depth cannot tell the hand by nearness
             hand = self.hand.mask(self.camera)
             hand_class_ids = np.where(hand, percept.class_ids, 0)
             percept = without_hand(percept, hand)
-        stats = semantic_map.update(percept, pose, holding=holding)
+        stats = semantic_map.update(percept, pose, holding=verdict.holding)
         mapped = time.perf_counter()
-        view = SessionMapView(
-            semantic_map,
-            percept,
-            self.camera,
-            pose,
-            holding=holding,
-            held_type=held_type,
-            last_success=success.success,
-            ignored=self.executor.state.ignored,
-            explore_attempts=self.executor.state.explore_attempts,
-            click_config=self.executor.config.click,
-            stand_clearance_m=self.executor.config.stand_clearance_m,
-            hand_class_ids=hand_class_ids,
-        )
-        inputs = StepInputs(index, pose, view, obs, frame_digest, success.success)
+        view = self.executor.map_view(semantic_map, percept, self.camera, pose, verdict, hand_class_ids)
+        inputs = StepInputs(index, pose, view, obs, frame_digest, verdict)
         decision = self.executor.decide(inputs, self.plan, self.pointer)
-        replanned: list[str] = []
-        why = self.replan_reason(decision)
+        events = list(decision.events)
+        why = self._replan_reason(decision)
         if why is not None:
             self._apply(decision)
-            if self._replan_from_progress(why, replanned):
-                self.executor.state.pending = None  # the first answer is never sent: nothing of it is pending
-                decision = self.executor.decide(inputs, self.plan, self.pointer)
+            if self._replan_from_progress(why, events):
+                decision = self.executor.pursue(inputs, self.plan, self.pointer)
+                events.extend(decision.events)
         decided = time.perf_counter()
         self._apply(decision)
         self.pose = pose
@@ -456,7 +432,7 @@ class AgentSession:
                 x=result.x,
                 y=result.y,
                 reason=result.reason,
-                events=[*replanned, *decision.events],
+                events=events,
                 timing_ms={k: round(v, 3) for k, v in timing.items()},
                 state_bytes=self.state_bytes(executor_bytes=self._executor_size(index)),
             )
@@ -486,56 +462,17 @@ class AgentSession:
             look_step_deg=self.look_step_deg,
         )
 
-    def _clicked_colours(self, obs: Observation, frame: FrameDigest) -> tuple[np.ndarray, np.ndarray] | None:
-        """The clicked instance's colour before and now, for an object action that changes no geometry."""
-        pending = self.executor.state.pending
-        if pending is None or pending.click is None or pending.colour is None:
-            return None
-        now = instance_colour(obs, frame, pending.click.instance_id)
-        return None if now is None else (pending.colour, now)
-
-    def _holding_now(self, last_success: bool | None) -> bool:
-        """Whether the hand holds something in this frame: the executor judges the previous action only
-        after the map update, so a Pickup or Place that just worked is taken into account here (else the
-        object just picked up, floating before the camera, would be mapped)."""
-        pending = self.executor.state.pending
-        if pending is not None and last_success is not False:
-            if pending.action == "Pickup":
-                return True
-            if pending.action == "Place":
-                return False
-        return self.executor.state.belief.held is not None
-
-    def _held_type_now(self, last_success: bool | None) -> str | None:
-        """The type in the hand in this frame (``_holding_now``'s judgement): the plan's Pickup that just
-        worked, else the belief's; None when not known."""
-        pending = self.executor.state.pending
-        if pending is not None and last_success is not False and pending.action == "Pickup":
-            index = pending.plan_index
-            return self.plan[index].obj if index is not None and index < len(self.plan) else None
-        return self.executor.state.belief.held
-
-    def _sync_hand(self, obs: Observation) -> None:
-        """The caller's ``held_object`` (when sent) overrides the believed hand."""
-        belief = self.executor.state.belief
-        if obs.held_object is not None and belief.held != obs.held_object:
-            belief.held = obs.held_object
-
-    def replan_reason(self, decision: Decision) -> str | None:
-        """Why the language planner should plan again now, or None (issue #5: re-plan when the plan is
-        exhausted or failed). Only a planner that reads dialogue re-plans (the oracle's plan is the plan),
-        never in TATC (the follower asks its commander instead) nor after a commander's explicit command,
-        and at most ``max_progress_replans`` times, so a model that keeps proposing what fails cannot
-        loop."""
+    def _replan_reason(self, decision: Decision) -> ReplanReason | None:
+        """Why the language planner should plan again now, or None: when the executor's decision asks for it
+        (the plan ran out, or a subgoal failed; issue #5). Only a planner that reads dialogue re-plans (the
+        oracle's plan is the plan), never in TATC (the follower asks its commander instead) nor after a
+        commander's explicit command, and at most ``max_progress_replans`` times, so a model that keeps
+        proposing what fails cannot loop."""
         if not self.planner.replans_on_dialogue or self.mode == "tatc" or self.plan_source == "commander":
             return None  # a commander's explicit instruction is not second-guessed
         if self.progress_replans >= self.limits.max_progress_replans:
             return None
-        if decision.plan_done:
-            return "the plan ran out"
-        if any(event.rule == "subgoal-failed" for event in decision.repairs) and not decision.stop:
-            return "a subgoal failed"
-        return None
+        return decision.replan
 
     def _replan_from_progress(self, why: str, events: list[str]) -> bool:
         """Plan from the dialogue and everything done so far; adopt the plan unless it is empty (the model
@@ -549,7 +486,7 @@ class AgentSession:
         self.plan_source = outcome.source
         self.repair_log.extend(outcome.repair_log)
         self.pointer = 0
-        self.executor.state.retry.clear()  # the new plan is the planner's word on what is left
+        self.executor.new_plan()
         events.append(f"re-planned because {why}: {format_subgoals(self.plan)}")
         return True
 
@@ -652,7 +589,7 @@ class AgentSession:
         mask = np.zeros((H, W), dtype=bool)
         mask[row, col] = True
         point = depth_to_points(depth, self.camera, pose, mask)[0]
-        self.executor.state.memory.where[object_type] = (float(point[0]), float(point[1]), float(point[2]))
+        self.executor.remember(object_type, (float(point[0]), float(point[1]), float(point[2])))
 
     # ----- what a person can look at -----------------------------------------------------------------
     def map_png(self) -> bytes:
@@ -748,14 +685,6 @@ def _process_wide(
         raise SnapshotError(f"snapshot names an unknown process-wide object {name!r}")
 
     return resolve
-
-
-def build_navigator(name: NavigatorName, clearance_m: float) -> Navigator:
-    """The session's navigator. JARVIS's FMM plans with the clearance the simulator's reachable grid allows
-    (``executor.config.STAND_CLEARANCE_M``); HLSM's VIN tests footprints and takes no radius."""
-    if name == "fmm":
-        return FmmNavigator(FmmConfig(robot_radius_m=clearance_m))
-    return make_navigator(name)
 
 
 def _executor_bytes(executor: Executor) -> int:

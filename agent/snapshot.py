@@ -37,15 +37,19 @@ from agent.executor.config import ExecutorConfig, SearchConfig
 from agent.executor.executor import Executor
 from agent.executor.looks import StainConfig
 from agent.executor.mapview import IgnoredSpot
-from agent.executor.motion import GuardedNavigator
 from agent.executor.state import (
     Attempt,
     ContainerVisit,
+    Detections,
     ExecutorState,
     FailedClick,
     Hint,
     Memory,
+    MotionMemory,
     Pending,
+    Progress,
+    RowProgress,
+    SearchMemory,
     SearchState,
     Sighting,
 )
@@ -53,7 +57,6 @@ from agent.executor.success import FrameDigest, SuccessConfig
 from agent.exploration_gt import GoalExplorerConfig, GoalTransformerExplorer, _Search
 from agent.geometry import Camera, Pose
 from agent.mapping import SemanticMap
-from agent.navigation.base import CollisionMemory
 from agent.navigation.exploration import ExplorationConfig, FrontierExplorer
 from agent.navigation.fmm import FmmConfig, FmmNavigator
 from agent.navigation.vin import VinConfig, VinNavigator
@@ -66,7 +69,7 @@ from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 MAGIC = b"JARVSNAP"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 """Bump on any change to the layout or the meaning of a node; older snapshots are then refused, not
 mis-read (a session restarts rather than resumes from a state it would misunderstand)."""
 _HEADER = struct.Struct(">8sH")
@@ -122,10 +125,11 @@ _CLASSES: tuple[type, ...] = (
     SubgoalAction, RepairEvent,
     # the executor and what it carries between steps
     Executor, ExecutorConfig, SearchConfig, ClickConfig, StainConfig, ExecutorState, BeliefState, Memory,
-    Hint, Attempt, SearchState, ContainerVisit, Pending, FailedClick, Click, IgnoredSpot, Sighting,
+    SearchMemory, Detections, MotionMemory, Progress, Hint, Attempt, SearchState, RowProgress, ContainerVisit,
+    Pending, FailedClick, Click, IgnoredSpot, Sighting,
     # navigation and exploration
-    GuardedNavigator, FmmNavigator, FmmConfig, VinNavigator, VinConfig, CollisionMemory, FrontierExplorer,
-    ExplorationConfig, GoalTransformerExplorer, GoalExplorerConfig, _Search,
+    FmmNavigator, FmmConfig, VinNavigator, VinConfig, FrontierExplorer, ExplorationConfig,
+    GoalTransformerExplorer, GoalExplorerConfig, _Search,
 )  # fmt: skip
 
 _DETACHED: dict[type, dict[str, Callable[[Any], Name]]] = {

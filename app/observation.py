@@ -2,8 +2,8 @@
 
 Decoding and validation are the agent's (``agent.perception.decode``: base64 text or raw multipart bytes,
 PNG/JPEG, 16-bit millimetre or float32 depth, instance ids and their legend); this module only says which
-inputs each perception back-end needs (DESIGN.md §4: oracle needs depth and segmentation, learned needs
-RGB) and turns an ``ObservationError`` into the error code clients branch on, naming the field.
+inputs each perception back-end needs (its registry entry's ``needs``: oracle needs depth and segmentation,
+learned needs RGB) and turns an ``ObservationError`` into the error code clients branch on, naming the field.
 """
 
 from __future__ import annotations
@@ -11,10 +11,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from agent.geometry import Camera, Pose
-from agent.perception import Observation, ObservationError
+from agent.perception import PERCEPTION_BACKENDS, Observation, ObservationError, PerceptionName
 from agent.perception.decode import decode_observation
 from agent.perception.decode import image_size as header_image_size
-from agent.session import PerceptionName
 from app.errors import (
     INVALID_DEPTH,
     INVALID_IMAGE,
@@ -26,12 +25,6 @@ from app.errors import (
 )
 from app.schemas import MIN_IMAGE_SIDE, StepRequest
 from symbolic.ontology import Ontology, UnknownObjectType
-
-REQUIRED_INPUTS: dict[str, tuple[str, ...]] = {
-    "oracle": ("depth", "segmentation", "segmentation_legend"),
-    "learned": ("rgb",),
-}
-"""What each perception back-end reads from every step (DESIGN.md §4)."""
 
 _CODE_OF_FIELD: dict[str, str] = {
     "rgb": INVALID_IMAGE,
@@ -60,7 +53,7 @@ def observation_error(error: ObservationError, names: Mapping[str, str] | None =
 
 
 def _require(present: Mapping[str, bool], perception: PerceptionName) -> None:
-    needed = REQUIRED_INPUTS[perception]
+    needed = PERCEPTION_BACKENDS.get(perception).needs
     missing = [name for name in needed if not present.get(name)]
     if missing:
         raise ApiError(

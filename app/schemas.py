@@ -12,9 +12,11 @@ from typing import Annotated, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, JsonValue, model_validator
 
-from agent.executor.config import DEFAULT_EXPLORER, ExplorerName
-from agent.planning import PlanSource, Speaker
-from agent.session import Mode, NavigatorName, PerceptionName, PlannerName
+from agent.explorers import DEFAULT_EXPLORER, ExplorerName
+from agent.navigation import NavigatorName
+from agent.perception import PERCEPTION_BACKENDS, PerceptionName
+from agent.planning import PlannerName, PlanSource, Speaker
+from agent.session import Mode
 from app.doc_examples import (
     EXAMPLE_DEPTH,
     EXAMPLE_LEGEND,
@@ -24,6 +26,7 @@ from app.doc_examples import (
     EXAMPLE_SESSION_CREATE,
     EXAMPLE_STEP,
 )
+from symbolic.repair import REPAIR_RULES
 from symbolic.thor import CAMERA_HEIGHT_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, TEACH_DRIVER_ACTIONS
 
 _BASE64: dict[str, JsonValue] = {"contentEncoding": "base64"}
@@ -271,7 +274,11 @@ class SessionCreate(RequestModel):
     )
     perception: PerceptionName = Field(
         default="oracle",
-        description="oracle: each step sends depth and instance segmentation; learned: RGB only.",
+        description="oracle: the caller's depth and instance segmentation; learned: networks estimate both "
+        "from RGB; learned_depth, learned_segmentation: one half learned (the JARVIS seed's ablations). "
+        "What each step must send: "
+        + "; ".join(f"{name}: {', '.join(backend.needs)}" for name, backend in PERCEPTION_BACKENDS.items())
+        + ".",
         examples=["oracle"],
     )
     planner: PlannerName | None = Field(
@@ -353,7 +360,10 @@ class SubgoalOut(ResponseModel):
 class RepairEventOut(ResponseModel):
     """One change a task-level commonsense rule made to the plan (JARVIS Algorithm 2)."""
 
-    rule: str = Field(description="Name of the rule that fired.", examples=["slice-needs-knife"])
+    rule: str = Field(
+        description=f"Name of the rule that fired, one of: {', '.join(REPAIR_RULES.names())}.",
+        examples=["slice-needs-knife"],
+    )
     index: int = Field(description="Position in the plan where the rule acted.", examples=[0])
     reason: str = Field(
         description="Why, in words.", examples=["Slice Bread needs a knife in hand; nothing is held"]

@@ -13,17 +13,16 @@ from typing import overload
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
-from agent.perception import NetworkPaths, Perception, make_perception
+from agent.perception import NetworkPaths, Perception, PerceptionName, make_perception
 from agent.planning import (
     DialogueTurn,
     PlannerConfig,
+    PlannerUnavailable,
     PlanTooLong,
     SubgoalsRequired,
-    UnknownPlanner,
-    available_planners,
     make_planner,
 )
-from agent.session import AgentSession, Mode, PerceptionName, SessionLimits
+from agent.session import AgentSession, Mode, SessionLimits
 from app.errors import (
     HISTORY_MISMATCH,
     INVALID_SUBGOALS,
@@ -39,6 +38,7 @@ from app.observation import history_observation
 from app.schemas import CameraSpec, History, HistoryAction, SessionCreate, SubgoalIn
 from app.settings import Settings
 from symbolic.ontology import Ontology, UnknownObjectType
+from symbolic.registry import UnknownName
 from symbolic.subgoals import Subgoal, SubgoalSyntaxError, object_type_of_id, subgoals_from_teach_actions
 from symbolic.thor import ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
 
@@ -86,8 +86,8 @@ def perception_backend(
     build it (an unknown name, or a learned back-end whose trained networks are missing)."""
     try:
         return make_perception(name, camera, networks)
-    except KeyError as error:
-        raise ApiError(422, PERCEPTION_UNAVAILABLE, f"perception {name!r}: {error.args[0]}") from error
+    except UnknownName as error:
+        raise ApiError(422, PERCEPTION_UNAVAILABLE, str(error)) from error
     except FileNotFoundError as error:
         raise ApiError(
             422,
@@ -240,14 +240,11 @@ def build_session(
     planner_name = body.chosen_planner()
     try:
         planner = make_planner(planner_name, ontology, planner_config(settings))
-    except UnknownPlanner as error:
-        why = error.why or f"planner {planner_name!r} is not available in this build"
-        raise ApiError(
-            422,
-            PLANNER_UNAVAILABLE,
-            f"{why}. Available planners: {', '.join(available_planners())}; planner 'oracle' with "
-            "'subgoals' needs no model.",
-        ) from error
+    except UnknownName as error:
+        raise ApiError(422, PLANNER_UNAVAILABLE, str(error)) from error
+    except PlannerUnavailable as error:
+        why = f"{error}; planner 'oracle' with 'subgoals' needs no model"
+        raise ApiError(422, PLANNER_UNAVAILABLE, why) from error
     history_subgoals = _history_subgoals(body.history, ontology)
     history: Sequence[HistoryStep]
     if history_frames is not None:

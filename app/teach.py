@@ -34,8 +34,7 @@ from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 from starlette.exceptions import HTTPException
 
-from agent.perception import ObservationError
-from agent.session import AgentSession
+from agent.session import AgentSession, StepDecision
 from app.error_handlers import validation_detail
 from app.errors import (
     EDH_INSTANCE_NOT_STARTED,
@@ -48,11 +47,13 @@ from app.errors import (
     ApiError,
 )
 from app.limits import check_history_length
-from app.observation import image_size, observation_error, rgb_observation
+from app.metrics import ServiceMetrics
+from app.observation import image_size, rgb_observation
 from app.ownership import Caller, owner_cap, too_many_sessions
 from app.schemas import CameraSpec, SessionCreate, TeachAction, TeachPrevAction, TeachStarted
 from app.session_builder import build_session
 from app.settings import Settings
+from app.step_run import StepRules, run_step
 from app.store import SessionNotFound, SessionStore, StoredSession, StoreFull
 from app.store_errors import store_errors_as_api_errors
 from app.views import plan_out
@@ -180,24 +181,22 @@ class TeachEpisode:
     pending: SessionCreate | None
     """The session's request while its camera may still follow the first frame (no history images)."""
     last_img_name: str | None = None
-    last_answer: TeachAction | None = None
+    """The frame the session last answered; the same name again is a retry (the session's last answer)."""
 
     def notes(self) -> dict[str, Any]:
         return {
             "edh_name": self.edh_name,
             "pending": self.pending.model_dump(mode="json") if self.pending is not None else None,
             "last_img_name": self.last_img_name,
-            "last_answer": self.last_answer.model_dump(mode="json") if self.last_answer is not None else None,
         }
 
     @classmethod
     def from_notes(cls, notes: Mapping[str, Any]) -> TeachEpisode:
-        pending, answer = notes.get("pending"), notes.get("last_answer")
+        pending = notes.get("pending")
         return cls(
             edh_name=str(notes["edh_name"]),
             pending=SessionCreate.model_validate(pending) if pending is not None else None,
             last_img_name=notes.get("last_img_name"),
-            last_answer=TeachAction.model_validate(answer) if answer is not None else None,
         )
 
 
@@ -414,12 +413,21 @@ def _adopt_frame_size(
     episode.pending = resized
 
 
+def _teach_action(decision: StepDecision) -> TeachAction:
+    """A decision as TEACh's runner reads it: the click point row first (index 0 is y)."""
+    coord = None
+    if decision.action in OBJECT_ACTIONS and decision.x is not None and decision.y is not None:
+        coord = [decision.y, decision.x]
+    return TeachAction(action=decision.action, obj_relative_coord=coord)
+
+
 def next_action(
     form: TeachForm,
     settings: Settings,
     store: SessionStore,
     ontology: Ontology,
     caller: Caller,
+    metrics: ServiceMetrics,
 ) -> TeachAction:
     """The instance session's next action for this frame (see the module docstring for the rules)."""
     edh_instance = form.json_object("edh_instance", required=False)
@@ -444,28 +452,20 @@ def next_action(
             store.hold(session_id, caller.owner, timeout, write=True) as held,
         ):
             episode = TeachEpisode.from_notes(held.meta[TEACH_NOTES])
-            if img_name is not None and img_name == episode.last_img_name and episode.last_answer is not None:
-                held.changed = False
-                return episode.last_answer  # the runner retried: same frame, same answer, nothing changes
             if episode.pending is not None:
                 _adopt_frame_size(held, episode, image_size(img, "img"), settings, ontology)
-            session = held.session
-            _check_prev_action(prev, session, name)
-            observation = rgb_observation(img, session.camera, ontology, "img")
-            try:
-                decision = session.step_once(observation)
-            except ObservationError as error:
-                raise observation_error(error, {"rgb": "img"}) from error
-            held.new_frame = observation.rgb  # the live view shows it (app.live_view)
-            coord = None
-            if decision.action in OBJECT_ACTIONS and decision.x is not None and decision.y is not None:
-                coord = [decision.y, decision.x]  # row first: TEACh's runner reads index 0 as y
-            answer = TeachAction(action=decision.action, obj_relative_coord=coord)
-            episode.pending = None
-            episode.last_img_name = img_name
-            episode.last_answer = answer
-            held.meta[TEACH_NOTES] = episode.notes()
-            return answer
+            rules = StepRules(
+                repeats_last=lambda _, __: img_name is not None and img_name == episode.last_img_name,
+                check_order=lambda session: _check_prev_action(prev, session, name),
+                observe=lambda session: rgb_observation(img, session.camera, ontology, "img"),
+                field_names={"rgb": "img"},
+            )
+            run = run_step(held, rules, metrics)
+            if not run.repeated:
+                episode.pending = None
+                episode.last_img_name = img_name
+                held.meta[TEACH_NOTES] = episode.notes()
+            return _teach_action(run.decision)
     except ApiError as error:
         if error.code == SESSION_NOT_FOUND:
             store.unbind_name(caller.owner, name)

@@ -19,7 +19,7 @@ BENCH_DIR = Path(__file__).resolve().parent
 
 def bench_scripts() -> list[str]:
     """Module names of the benchmark scripts in this folder (those with a command line), alphabetically;
-    helper modules such as ``provenance`` are not benchmarks."""
+    helper modules such as ``stamp`` are not benchmarks."""
     return sorted(
         path.stem
         for path in BENCH_DIR.glob("*.py")

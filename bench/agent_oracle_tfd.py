@@ -2,8 +2,8 @@
 
 The issue's bar: on 100 episodes spread evenly over TEACh's 12 tasks (episode i is task i % 12), SR ≥ 85%
 overall, reported per task with the failure reasons. Every episode goes through a real service subprocess over
-HTTP (``harness.runner``): frames at 300x300 (hfov 90) with depth and instance segmentation, the world pose,
-no success flag, the expert's type-level subgoals as the plan. Failure reasons come at two levels:
+HTTP (``harness.drive.runner``): frames at 300x300 (hfov 90) with depth and instance segmentation, the world
+pose, no success flag, the expert's type-level subgoals as the plan. Failure reasons come at two levels:
 failed actions by simulator FailureReason (the JARVIS seed's Table 8) and how unsuccessful episodes ended
 (wrong final state after Stop, step limit, failure limit, service error).
 
@@ -17,37 +17,26 @@ Run: ``.venv/bin/python -m bench.agent_oracle_tfd [--n 100] [--workers 2]``; wri
 
 from __future__ import annotations
 
-import json
-import os
-import platform
-import sys
-import time
 from collections import Counter, defaultdict
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
 
-from bench.tatc_commander import current_commit
-from harness.camera import CameraSpec
-from harness.client import AgentClient
-from harness.metrics import EpisodeOutcome, aggregate
-from harness.runner import (
-    DEFAULT_CAMERA,
-    EpisodeUnavailable,
-    RunnerOptions,
-    generated_tfd_episode,
-    run_episode,
-)
-from harness.service import running_service
-from harness.splits import Split
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.drive.client import AgentClient
+from harness.drive.generated import EpisodeUnavailable, generated_tfd_episode
+from harness.drive.metrics import EpisodeOutcome, aggregate
+from harness.drive.runner import DEFAULT_CAMERA, RunnerOptions, run_episode
+from harness.drive.service import running_service
+from harness.render.camera import CameraSpec
 from harness.tasks.teach import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, http_url, plain
+from harness.world.splits import Split
+from symbolic.cli_args import http_url
 
-RESULTS = Path(__file__).resolve().parent / "results" / "agent_oracle_tfd.json"
 SPLIT: Split = "valid_unseen"
 SR_BAR = 0.85  # the issue's bar on overall SR
 EXPERT_TRIES = 10  # games tried per episode slot before giving up on it (the expert fails some games)
@@ -123,7 +112,7 @@ def _episode_row(result: EpisodeResult) -> dict[str, Any]:
     }
 
 
-def report(results: Sequence[EpisodeResult], wall_s: float, config: dict[str, Any]) -> dict[str, Any]:
+def report(results: Sequence[EpisodeResult], config: dict[str, Any]) -> dict[str, Any]:
     """The result file: TEACh-layout metrics overall and per task, failure reasons at both levels."""
     ran = [r for r in results if r.outcome is not None]
     outcomes = [r.outcome for r in ran if r.outcome is not None]
@@ -136,9 +125,7 @@ def report(results: Sequence[EpisodeResult], wall_s: float, config: dict[str, An
     sr = metrics["success"]["success_rate"]
     return {
         "config": config,
-        "machine": {"cpu": platform.machine(), "cores_visible": os.cpu_count()},
         "bar": {"success_rate_min": SR_BAR, "success_rate": sr, "met": sr >= SR_BAR},
-        "wall_s": round(wall_s, 1),
         "episodes_run": len(ran),
         "slots_without_episode": [r.slot for r in results if r.outcome is None],
         "metrics": metrics,
@@ -169,12 +156,11 @@ def print_table(result: dict[str, Any]) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.agent_oracle_tfd", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("agent_oracle_tfd", __doc__)
     parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes driving episodes")
     parser.add_argument("--camera", type=int, default=DEFAULT_CAMERA.width, help="square frame side, px")
     parser.add_argument("--url", type=http_url, help="use a running service instead of starting one")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     camera = CameraSpec(args.camera, args.camera, DEFAULT_CAMERA.hfov_deg)
     config = {
@@ -185,25 +171,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         "planner": "oracle (expert subgoals)",
         "workers": args.workers,
     }
-    started = time.perf_counter()
-    load_before = os.getloadavg()[0]
+    run = BenchRun.start("agent_oracle_tfd", argv)
     if args.url is not None:
         results = _run_all(args.n, args.workers, args.url, camera)
     else:
         with running_service() as service:
             results = _run_all(args.n, args.workers, service.base_url, camera)
-    result = {
-        "commit": current_commit(),
-        "command": " ".join(
-            ["python", "-m", "bench.agent_oracle_tfd", *(argv if argv is not None else sys.argv[1:])]
-        ),
-        "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)},
-        **report(results, time.perf_counter() - started, config),
-    }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2))
+    result = report(results, config)
     print_table(result)
-    print(f"wrote {args.out}")
+    run.write(args.out, result)
     return 0
 
 

@@ -7,8 +7,9 @@ Each slot is one ``python -m harness eval --benchmark edh`` episode: the generat
 replayed into the session, then the agent predicts the rest. The planner is the service's default language
 planner (``model``: the default checkpoint, re-planning and symbolic repair as in ``bench.planner_tfd``);
 perception is oracle by default, ``--perception learned`` runs the depth and segmentation networks instead
-(much slower). The metrics are TEACh's (``harness.metrics``: ``evaluate_traj`` per instance,
-``aggregate_metrics`` over the split), computed by ``harness.evaluate`` from the run folder's episode files.
+(much slower). The metrics are TEACh's (``harness.drive.metrics``: ``evaluate_traj`` per instance,
+``aggregate_metrics`` over the split), computed by ``harness.drive.evaluate`` from the run folder's episode
+files.
 
 Our episodes are worlds of our own simulator with generated dialogues, not TEACh's AI2-THOR games with human
 dialogue, so the seed's numbers sit beside ours for the layout and scale, not as a like-for-like comparison.
@@ -20,23 +21,23 @@ Run: ``.venv/bin/python -m bench.edh [--n 100] [--workers 2] [--perception oracl
 
 from __future__ import annotations
 
+import json
 import sys
-import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, cast
 
+from bench.cli import bench_parser
 from bench.planner_tfd import checkpoint_summary
-from bench.provenance import provenance, write_results
-from bench.tatc_commander import current_commit, runs_for_commit
-from harness.evaluate import EvalConfig, evaluate
-from harness.runner import DEFAULT_CAMERA, ServiceUnreachable, service_url
-from harness.splits import Split
+from bench.stamp import BenchRun, results_path, runs_for_commit
+from harness.drive.evaluate import EvalConfig, evaluate
+from harness.drive.runner import DEFAULT_CAMERA
+from harness.drive.service import ServiceUnreachable, service_url
 from harness.tasks.teach_definitions import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, fail, http_url, int_at_least, plain
+from harness.world.splits import Split
+from symbolic.cli_args import Parser, fail, http_url, int_at_least
 
 Perception = Literal["oracle", "learned"]
-RESULTS_DIR = Path(__file__).resolve().parent / "results"
 SPLIT: Split = "valid_unseen"
 
 # The JARVIS seed (../shared/seeds/002_8e70e6116768ed12.txt), Table 1, EDH columns: "Results in percentages on
@@ -89,7 +90,7 @@ def edh_config(n: int, perception: Perception) -> EvalConfig:
 
 
 def metric_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
-    """One group's SR, GC, TLW-SR and TLW-GC as fractions (``harness.metrics`` summary fields).
+    """One group's SR, GC, TLW-SR and TLW-GC as fractions (``harness.drive.metrics`` summary fields).
 
     ``gc`` is TEACh's aggregate (completed over total goal conditions, summed over episodes), the number its
     evaluation reports; ``gc_mean_per_episode`` is the per-episode mean the JARVIS seed's text describes.
@@ -110,8 +111,8 @@ def metric_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def edh_summary(result: Mapping[str, Any]) -> dict[str, Any]:
-    """The numbers of ``harness.evaluate``'s metrics file that the report keeps: overall and per task, each
-    task beside the seed's Table 3 EDH success rate, and how failed episodes ended."""
+    """The numbers of ``harness.drive.evaluate``'s metrics file that the report keeps: overall and per task,
+    each task beside the seed's Table 3 EDH success rate, and how failed episodes ended."""
     metrics = result["metrics"]
     if metrics is None:
         raise ValueError("no EDH episode ran: every slot was unavailable")
@@ -171,7 +172,7 @@ def per_task_table(per_task: Mapping[str, Mapping[str, Any]]) -> str:
 
 
 def _parser() -> Parser:
-    parser = Parser(prog="python -m bench.edh", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("edh", __doc__, out=False)
     parser.add_argument(
         "--n", type=int_at_least(1), default=100, help="EDH instances (slot i is task i %% 12)"
     )
@@ -195,20 +196,19 @@ def _parser() -> Parser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     perception = cast(Perception, args.perception)
-    out = args.out or RESULTS_DIR / ("edh.json" if perception == "oracle" else f"edh_{perception}.json")
+    out = args.out or results_path("edh" if perception == "oracle" else f"edh_{perception}")
     run_dir = args.run_dir or Path("runs/bench") / f"edh_{perception}"
     config = edh_config(args.n, perception)
 
-    started = time.perf_counter()
+    run = BenchRun.start("edh", argv)
     try:
         with service_url(args.url, None, start=args.url is None) as url:
-            result = evaluate(config, runs_for_commit(run_dir, current_commit()), url, args.workers)
+            result = evaluate(config, runs_for_commit(run_dir, run.commit), url, args.workers)
     except ServiceUnreachable as error:
         fail("python -m bench.edh", str(error))
     summary = edh_summary(result)
     our_name = f"this service (model planner, {perception} perception)"
     report: dict[str, Any] = {
-        **provenance("edh", argv),
         "benchmark": "edh",
         "split": SPLIT,
         "episodes": f"generated {SPLIT} games cut at edh0/edh1 (alternating by task cycle), history replayed",
@@ -228,9 +228,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "seed_source": "JARVIS seed (../shared/seeds/002_8e70e6116768ed12.txt), Table 1 (EDH columns) and "
         "Table 3 (EDH row, per task SR)",
         "comparability": COMPARABILITY,
-        "wall_s": round(time.perf_counter() - started, 1),
     }
-    write_results(out, report, "table_1_edh_unseen_percent")
+    run.write(out, report)
+    print(json.dumps(report["table_1_edh_unseen_percent"], indent=2))
     print(seed_layout_table(summary["overall"], our_name))
     print(per_task_table(summary["per_task"]))
     return 0

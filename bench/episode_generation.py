@@ -12,26 +12,26 @@ Run: ``.venv/bin/python -m bench.episode_generation [--n 24] [--camera 900]``; w
 from __future__ import annotations
 
 import json
-import os
-import platform
 import statistics
+import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
-from harness.camera import CameraSpec
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from harness.episodes.build import BuildConfig, BuildError, build_game
 from harness.episodes.generate import GenerateConfig, game_source, write_game
 from harness.episodes.phrases import load_phrase_bank
 from harness.episodes.sample import TaskSamplingError
 from harness.expert.expert import ExpertConfig, run_expert
-from harness.splits import Split
+from harness.render.camera import CameraSpec
 from harness.tasks.teach import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, plain
+from harness.world.splits import Split
 from symbolic.ontology import load_ontology
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
 
-RESULTS = Path(__file__).resolve().parent / "results" / "episode_generation.json"
 SPLIT: Split = "train"
 
 
@@ -39,11 +39,12 @@ def _median_ms(values: list[float]) -> float:
     return round(statistics.median(values) * 1000.0, 1) if values else 0.0
 
 
-def main() -> None:
-    parser = Parser(prog="python -m bench.episode_generation", description=plain(__doc__.splitlines()[0]))
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = bench_parser("episode_generation", __doc__)
     parser.add_argument("--n", type=int, default=24, help="games to attempt (default 24: two per task)")
     parser.add_argument("--camera", type=int, default=TEACH_IMAGE_SIDE, help="square camera side, pixels")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    run = BenchRun.start("episode_generation", argv)
     camera = CameraSpec(args.camera, args.camera, TEACH_HFOV_DEG)
     bank, ontology = load_phrase_bank(), load_ontology()
     stages: dict[str, list[float]] = {"sample": [], "expert": [], "build": [], "write": []}
@@ -77,7 +78,6 @@ def main() -> None:
     result = {
         "split": SPLIT,
         "camera": {"width": camera.width, "height": camera.height, "hfov_deg": camera.hfov_deg},
-        "machine": {"cpu": platform.machine(), "cores_visible": os.cpu_count()},
         "attempted": args.n,
         "games": games,
         "edh_and_tfd_episodes": episodes,
@@ -87,10 +87,10 @@ def main() -> None:
         "episodes_per_second": round(episodes / total, 3) if total else 0.0,
         "median_ms_per_successful_game": {stage: _median_ms(values) for stage, values in stages.items()},
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result, indent=2))
+    run.write(args.out, result)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -2,7 +2,7 @@
 
 The issue: the JARVIS seed's Goal Transformer explores when the target is not in the map; compare it with
 HLSM's frontier exploration on the same episodes (steps to first sight of the target, success rate) and
-make the better one the default (``agent.executor.config.DEFAULT_EXPLORER``). Two comparisons:
+make the better one the default (``agent.explorers.DEFAULT_EXPLORER``). Two comparisons:
 
 1. Search phases. Each episode is a valid_unseen search phase from
 ``harness.perception_data.search_episodes`` (a start pose from which the target is out of view; the
@@ -22,6 +22,8 @@ writes ``bench/results/goal_transformer_vs_frontier.json``.
 from __future__ import annotations
 
 import json
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,20 +34,21 @@ from agent.geometry import Camera, Pose
 from agent.mapping import SemanticMap
 from agent.navigation import make_navigator
 from agent.navigation.base import NavGrids
-from agent.navigation.exploration import FrontierExplorer
+from agent.navigation.exploration import ExploreInput, FrontierExplorer
 from agent.perception import OraclePerception
 from agent.perception.base import Observation
-from bench.tatc_commander import current_commit, level_summary, runs_for_commit
-from harness.camera import CameraSpec
-from harness.evaluate import EvalConfig, evaluate
+from bench.cli import bench_parser
+from bench.stamp import BenchRun, runs_for_commit
+from bench.tatc_commander import level_summary
+from harness.drive.evaluate import EvalConfig, evaluate
+from harness.drive.runner import DEFAULT_CAMERA, ExplorerName
+from harness.drive.service import service_url
 from harness.perception_data import SearchConfig, SightingCheck, search_episodes
-from harness.runner import DEFAULT_CAMERA, ExplorerName, service_url
-from harness.simulator import Simulator
-from harness.world import World
-from symbolic.cli_args import Parser, plain
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
+from harness.world.model import World
 from symbolic.thor import TEACH_HFOV_DEG
 
-RESULTS = Path(__file__).resolve().parent / "results" / "goal_transformer_vs_frontier.json"
 SEED = 7
 SIDE = 300
 EXPLORERS: tuple[ExplorerName, ...] = ("frontier", "goal_transformer")
@@ -85,16 +88,18 @@ def run_search(
             collisions=semantic_map.collisions(),
         )
         if frontier is not None:
-            decision = frontier.next_action(grids, semantic_map.frame, pose)
+            decision = frontier.next_action(ExploreInput(grids, semantic_map.frame, pose))
         else:
             assert learned is not None and frame.rgb is not None
             decision = learned.next_action(
-                grids,
-                semantic_map.frame,
-                pose,
-                rgb=frame.rgb,
-                subgoals=subgoals,
-                last_action_success=last_success,
+                ExploreInput(
+                    grids,
+                    semantic_map.frame,
+                    pose,
+                    rgb=frame.rgb,
+                    subgoals=subgoals,
+                    last_action_success=last_success,
+                )
             )
         if decision.action is None:
             break
@@ -120,9 +125,9 @@ def _rank(summary: dict[str, Any]) -> tuple[float, float]:
     return summary["success_rate"], -(steps if steps is not None else float("inf"))
 
 
-def whole_episodes(n: int, workers: int, runs: Path) -> dict[str, Any]:
-    """Task SR of the agent with each explorer on the first n generated valid_unseen TfD games."""
-    commit = current_commit()
+def whole_episodes(n: int, workers: int, runs: Path, commit: str) -> dict[str, Any]:
+    """Task SR of the agent with each explorer on the first n generated valid_unseen TfD games (run folders
+    of ``commit``'s code)."""
     results: dict[str, Any] = {}
     with service_url(None, None, start=True) as url:
         for name in EXPLORERS:
@@ -136,14 +141,11 @@ def whole_episodes(n: int, workers: int, runs: Path) -> dict[str, Any]:
             )
             summary = level_summary(evaluate(config, runs_for_commit(runs / name, commit), url, workers))
             results[name] = {k: summary[k] for k in ("n", "sr", "gc", "mean_steps", "per_task_sr")}
-    results["commit"] = commit
     return results
 
 
-def main() -> None:
-    parser = Parser(
-        prog="python -m bench.goal_transformer_vs_frontier", description=plain(__doc__.splitlines()[0])
-    )
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = bench_parser("goal_transformer_vs_frontier", __doc__)
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--steps", type=int, default=100, help="steps each search episode may take")
     parser.add_argument("--threads", type=int, default=2)
@@ -152,7 +154,8 @@ def main() -> None:
     parser.add_argument(
         "--run-dir", type=Path, default=Path("runs/bench/explorers"), help="--tfd run folders"
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    run = BenchRun.start("goal_transformer_vs_frontier", argv)
     import torch  # after parsing: --help loads no torch
 
     torch.set_num_threads(args.threads)
@@ -180,18 +183,17 @@ def main() -> None:
     }
     searches = {name: _rank(result[name]) for name in EXPLORERS}
     if args.tfd:
-        tasks = whole_episodes(args.tfd, args.workers, args.run_dir)
+        tasks = whole_episodes(args.tfd, args.workers, args.run_dir, run.commit)
         result["tfd_oracle_subgoals"] = tasks
         result["better"] = max(
             EXPLORERS, key=lambda name: (tasks[name]["sr"], tasks[name]["gc"], *searches[name])
         )
     else:
         result["better"] = max(EXPLORERS, key=lambda name: searches[name])
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2))
-    print(f"wrote {RESULTS}")
+    run.write(args.out, result)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -5,13 +5,14 @@ What a lab deploying the service wants to know: how many steps a second the mach
 added, what one step costs on the server under that load, how much memory a worker and a session take, and
 that killing a worker loses no session and changes no episode.
 
-How. The harness's renderer takes about as long per 300x300 frame as the service's whole step (19 ms against
-~20 ms, ``bench/results/render_speed.json``), and this machine has 2 cores: a load generator rendering live
-would take half the machine and measure itself. So the episodes are played once, live (the real simulator
-executing every answer, frames rendered with their per-step noise), and every request body and answer is
-recorded; the measured runs replay those bodies and check each answer against the recorded one. An answer
-that differs ends that replayed episode as ``diverged`` (its frames would no longer be what the simulator
-shows), so a run whose episodes all match played exactly the recorded episodes, with their outcomes.
+How. The harness's renderer takes about as long per 300x300 frame as the service's whole step
+(``bench/results/render_speed.json`` against ``step_latency.json``), and this machine has 2 cores: a load
+generator rendering live would take half the machine and measure itself. So the episodes are played once,
+live (the real simulator executing every answer, frames rendered with their per-step noise), and every
+request body and answer is recorded; the measured runs replay those bodies and check each answer against
+the recorded one. An answer that differs ends that replayed episode as ``diverged`` (its frames would no
+longer be what the simulator shows), so a run whose episodes all match played exactly the recorded
+episodes, with their outcomes.
 
 Each of the ``--sessions`` client threads plays recorded episodes one after another (thread k starts at
 episode k) until it has sent ``--steps`` steps, through its own keep-alive connection; a request that meets a
@@ -27,6 +28,7 @@ Run: ``.venv/bin/python -m bench.load_fault [--sessions 32] [--steps 1000] [--ep
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import threading
@@ -44,18 +46,19 @@ import redis
 from prometheus_client.parser import text_string_to_metric_families
 from tqdm import tqdm
 
-from bench.provenance import provenance, write_results
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from bench.step_latency import episodes as generated_episodes
-from harness.client import RETRYABLE_CODES, AgentClient
+from harness.drive.client import RETRYABLE_CODES, AgentClient
+from harness.drive.runner import RunnerOptions, run_episode
+from harness.drive.service import RunningService, running_service
 from harness.episodes.model import Episode
-from harness.runner import RunnerOptions, run_episode
-from harness.service import RunningService, running_service
-from symbolic.cli_args import Parser, plain
+from symbolic.cli_args import Parser
 
-RESULTS = Path(__file__).resolve().parent / "results" / "load_fault.json"
 SCALING_BAR = 1.7  # the issue's bar: 2 workers' aggregate steps/s over 1 worker's
 GIVE_UP_AFTER_S = 120.0  # a request keeps being retried this long (a killed worker's lease lapses in 6 s)
 SAMPLE_EVERY_S = 1.0  # worker RSS sampling period
+DEFAULT_REDIS = "redis://127.0.0.1:6379/0"
 Answer = tuple[str, float | None, float | None]
 
 
@@ -433,23 +436,27 @@ def measured_run(
     }
 
 
+def require_redis(parser: Parser, url: str) -> None:
+    """Refuse the command line in one line when no Redis answers at ``url``, where the sessions live."""
+    try:
+        redis.Redis.from_url(url, socket_connect_timeout=2.0).ping()
+    except redis.RedisError as error:
+        parser.error(f"no Redis answers at {url} ({error}); start one (README: scale-out)")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.load_fault", description=plain(__doc__.split("\n\n")[0]))
+    parser = bench_parser("load_fault", __doc__)
     parser.add_argument("--sessions", type=int, default=32, help="concurrent sessions (client threads)")
     parser.add_argument("--steps", type=int, default=1000, help="steps each session stream sends")
     parser.add_argument("--episodes", type=int, default=16, help="distinct recorded episodes")
-    parser.add_argument("--redis", default="redis://127.0.0.1:6379/0", help="Redis URL the service uses")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results file")
+    parser.add_argument("--redis", default=DEFAULT_REDIS, help="Redis URL the service uses")
     args = parser.parse_args(argv)
     if min(args.sessions, args.steps, args.episodes) < 1:
         parser.error("--sessions, --steps and --episodes must be at least 1")
-    try:
-        redis.Redis.from_url(args.redis, socket_connect_timeout=2.0).ping()
-    except redis.RedisError as error:
-        parser.error(f"no Redis answers at {args.redis} ({error}); start one (README: scale-out)")
+    require_redis(parser, args.redis)
 
+    run = BenchRun.start("load_fault", argv)
     options = RunnerOptions()
-    started = time.time()
     episodes = generated_episodes(args.episodes, options)
     with running_service(env={"JARVIS_PRELOAD_MODELS": "false"}) as service:
         recorded = [
@@ -470,7 +477,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     ratio = runs["two_workers"]["steps_per_s"] / runs["one_worker"]["steps_per_s"]
     fault = runs["two_workers_one_killed_twice"]
     report = {
-        **provenance("load_fault", argv),
         "store": "redis",
         "frames": "300x300 hfov 90: RGB, 16-bit depth and instance PNGs in JSON (the harness client's "
         "default)",
@@ -489,9 +495,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             "scaling_bar": SCALING_BAR,
             "scaling_met": ratio >= SCALING_BAR,
         },
-        "wall_s": round(time.time() - started, 1),
     }
-    write_results(args.out, report, "bar")
+    print(json.dumps(report["bar"], indent=2))
+    run.write(args.out, report)
     return 0
 
 

@@ -1,39 +1,37 @@
 """Semantic map update speed and session state size (DESIGN.md §8: 300x300 oracle update median <= 10 ms).
 
-A scripted walk through ``harness.worldgen``'s kitchen (fixed seed): from the start cell the agent looks
-around (four turns), then walks cell to cell over the reachable grid (a seeded walk that prefers unvisited
-cells), facing where it goes and alternating TEACh's horizons 0 and 30, looking around again every 10
-steps. Frames are rendered first (not timed); then each frame is perceived by the oracle and integrated
+A scripted walk through ``harness.world.procedural``'s kitchen (fixed seed): from the start cell the agent
+looks around (four turns), then walks cell to cell over the reachable grid (a seeded walk that prefers
+unvisited cells), facing where it goes and alternating TEACh's horizons 0 and 30, looking around again every
+10 steps. Frames are rendered first (not timed); then each frame is perceived by the oracle and integrated
 into one SemanticMap, timing perception (instance ids -> classes, eq. (5) mask) and the map update apart.
-For scale: FILM ~400 ms and HLSM ~200 ms per step on this CPU.
+For scale, ``bench.map_update_published`` times FILM's and HLSM's own map updates on the same walk.
 
 Run: ``.venv/bin/python -m bench.map_update``; writes ``bench/results/map_update.json``.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import platform
 import random
+import sys
 import time
-from pathlib import Path
+from collections.abc import Sequence
 
 import numpy as np
 
 from agent.geometry import Camera, Pose
 from agent.mapping import SemanticMap
 from agent.perception import Observation, OraclePerception
-from harness.camera import CameraSpec
-from harness.navgrid import reachable_grid
-from harness.render import Frame, Renderer
-from harness.world import World
-from harness.worldgen import generate_kitchen
-from symbolic.cli_args import Parser, plain
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Frame, Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.world.model import World
+from harness.world.procedural.generate import generate_kitchen
 from symbolic.thor import ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG, TEACH_IMAGE_SIDE
 
 SEED = 0
-RESULTS = Path(__file__).resolve().parent / "results" / "map_update.json"
 RUNS: tuple[tuple[Camera, int], ...] = (
     (Camera(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG), 80),
     (Camera(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG), 40),
@@ -115,13 +113,15 @@ def time_walk(camera: Camera, poses: list[Pose], frames: list[Frame]) -> dict[st
     }
 
 
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> int:
+    # No options but --out; the parser answers --help and refuses stray arguments.
+    args = bench_parser("map_update", __doc__).parse_args(argv)
+    run = BenchRun.start("map_update", argv)
     world = generate_kitchen(SEED)
     results: dict[str, object] = {
         "seed": SEED,
         "scene": f"worldgen kitchen seed {SEED}: {len(world.objects)} objects, "
         f"{world.room.floor.sum() * 0.0625:.1f} m2 of floor",
-        "machine": {"cpu": platform.processor() or platform.machine(), "cores_visible": os.cpu_count()},
     }
     for camera, n in RUNS:
         poses = scripted_walk(world.copy(), n, random.Random(SEED))
@@ -139,17 +139,15 @@ def main() -> None:
     results["ratio_largest_state_to_limit"] = round(
         max(r["state_bytes_in_memory"] for r in (small, large)) / STATE_LIMIT_BYTES, 3
     )
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(results, indent=2) + "\n")
     print(
         f"map_update: 300x300 update median {small['update_median_ms']} ms (p90 {small['update_p90_ms']}), "
         f"with perception {small['perceive_plus_update_median_ms']} ms; 900x900 update median "
         f"{large['update_median_ms']} ms; state {small['state_bytes_in_memory']} B in memory, "
-        f"{small['state_bytes_serialized']} B serialized -> {RESULTS}"
+        f"{small['state_bytes_serialized']} B serialized"
     )
+    run.write(args.out, results)
+    return 0
 
 
 if __name__ == "__main__":
-    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
-    Parser(prog="python -m bench.map_update", description=plain(__doc__.splitlines()[0])).parse_args()
-    main()
+    sys.exit(main())

@@ -64,12 +64,9 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib.util
-import json
 import math
 import os
-import platform
 import random
-import subprocess
 import sys
 import tempfile
 import time
@@ -88,19 +85,19 @@ from agent.navigation.base import NavGoal, NavGrids, body_fits
 from agent.navigation.fmm import FmmNavigator
 from agent.navigation.goals import interaction_goal_cells
 from agent.perception import Observation, OraclePerception
+from bench.cli import bench_parser
 from bench.map_update import render_frames, scripted_walk
-from bench.tatc_commander import current_commit
-from harness.render import Frame
-from harness.world import World
-from harness.worldgen import generate_kitchen
-from symbolic.cli_args import Parser, plain
+from bench.stamp import THREAD_VARIABLES, BenchRun, head_commit
+from harness.render.renderer import Frame
+from harness.world.model import World
+from harness.world.procedural.generate import generate_kitchen
 from symbolic.thor import AGENT_RADIUS_M, ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG
 
 if TYPE_CHECKING:
     import torch
 
-THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-RESULTS = Path(__file__).resolve().parent / "results" / "map_update_published.json"
+COMPARE_LIBRARIES = ("kornia", "transforms3d", "imageio")
+"""Their imports (``pip install -e .[compare]``), whose versions the stamp records beside ours."""
 SEED = 0
 DEFAULT_FRAMES = 80
 FILM_FRAME_SIDE = 150
@@ -129,31 +126,31 @@ class Checkouts:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.map_update_published", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("map_update_published", __doc__)
     parser.add_argument("--film", type=Path, help="a checkout of github.com/soyeonm/FILM")
     parser.add_argument("--hlsm", type=Path, help="a checkout of github.com/valtsblukis/hlsm")
     parser.add_argument("--frames", type=int, default=DEFAULT_FRAMES, help="frames per camera")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     if args.film is None or args.hlsm is None:
         print("map_update_published: skipped: needs --film PATH --hlsm PATH (checkouts of FILM and HLSM)")
         return 0
     _pin_threads(sys.argv[1:] if argv is None else list(argv))
+    run = BenchRun.start("map_update_published", argv)
     checkouts = Checkouts(args.film.resolve(), args.hlsm.resolve())
     try:
         film, hlsm = _import_film(checkouts.film), _import_hlsm(checkouts.hlsm)
     except Exception as error:  # any import failure of their code means: cannot compare here
         print(f"map_update_published: skipped: their code does not import ({type(error).__name__}: {error})")
         return 0
-    return _run(args, checkouts, film, hlsm)
+    return _run(run, args, checkouts, film, hlsm)
 
 
 # ----- their code ----------------------------------------------------------------------------------------
 def _pin_threads(argv: list[str]) -> None:
     """One thread everywhere: BLAS/OpenMP pools are sized at import, so re-run the process with the
     variables set when they are not (before numpy or torch is imported), then pin torch's own pools."""
-    if any(os.environ.get(name) != "1" for name in THREAD_VARS):
-        os.environ.update({name: "1" for name in THREAD_VARS})
+    if any(os.environ.get(name) != "1" for name in THREAD_VARIABLES):
+        os.environ.update({name: "1" for name in THREAD_VARIABLES})
         os.execv(sys.executable, [sys.executable, "-m", "bench.map_update_published", *argv])
     import torch  # here, not at module top: --help and the skip line load no torch
 
@@ -230,11 +227,6 @@ def _import_hlsm(root: Path) -> types.SimpleNamespace:
     )
 
 
-def _git_commit(root: Path) -> str:
-    done = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True)
-    return done.stdout.strip() or "unknown (not a git checkout)"
-
-
 def _film_large_objects(root: Path) -> list[str]:
     """``alfred_utils/gen/constants.py``'s ``map_save_large_objects``, read from their checkout."""
     spec = importlib.util.spec_from_file_location(
@@ -247,10 +239,9 @@ def _film_large_objects(root: Path) -> list[str]:
 
 
 # ----- the run -------------------------------------------------------------------------------------------
-def _run(args: argparse.Namespace, checkouts: Checkouts, film: types.SimpleNamespace, hlsm: Any) -> int:
-    import torch
-
-    load_before = os.getloadavg()
+def _run(
+    run: BenchRun, args: argparse.Namespace, checkouts: Checkouts, film: types.SimpleNamespace, hlsm: Any
+) -> int:
     world = generate_kitchen(SEED)
     large = _film_large_objects(checkouts.film)
     cameras = {
@@ -272,20 +263,7 @@ def _run(args: argparse.Namespace, checkouts: Checkouts, film: types.SimpleNames
         "what": "map update and one planning step per frame, ours vs FILM's Semantic_Mapping.forward and "
         "FMMPlanner vs HLSM's HlsmObservationFunction.forward and GoToSkill.act; same frames, "
         "interleaved, one thread",
-        "commit": current_commit(),
-        "command": " ".join(["python", "-m", "bench.map_update_published", *sys.argv[1:]]),
-        "their_commits": {"film": _git_commit(checkouts.film), "hlsm": _git_commit(checkouts.hlsm)},
-        "machine": _machine(),
-        "threads": {"torch": torch.get_num_threads(), **{v: os.environ.get(v) for v in THREAD_VARS}},
-        "load_average": {
-            "before": [round(v, 2) for v in load_before],
-            "after": [round(v, 2) for v in os.getloadavg()],
-        },
-        "versions": {
-            "python": platform.python_version(),
-            "numpy": np.__version__,
-            "torch": torch.__version__,
-        },
+        "their_commits": {"film": head_commit(checkouts.film), "hlsm": head_commit(checkouts.hlsm)},
         "seed": SEED,
         "frames_per_camera": args.frames,
         "film_config": vars(_film_args(cameras["alfred_300x300_hfov60"], 10.0, 65.0, 31)),
@@ -300,9 +278,7 @@ def _run(args: argparse.Namespace, checkouts: Checkouts, film: types.SimpleNames
             "FILM's models/sem_mapping.py loaded as film_sem_mapping (our repo has a models package)",
         ],
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2) + "\n")
-    print(f"map_update_published: -> {args.out}")
+    run.write(args.out, results, libraries=COMPARE_LIBRARIES)
     return 0
 
 
@@ -730,18 +706,6 @@ def _agreement(xz: np.ndarray, ours: tuple[np.ndarray, float]) -> float:
     hits = np.zeros(len(xz), dtype=bool)
     hits[inside] = mask[i[inside], j[inside]] > 0
     return round(float(hits.mean()), 3)
-
-
-def _machine() -> dict[str, object]:
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"cpu": model, "cores_visible": os.cpu_count(), "platform": platform.platform()}
 
 
 if __name__ == "__main__":

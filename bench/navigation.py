@@ -3,14 +3,14 @@
 Part 1, 12 m house-like rooms (240x240 cells of 5 cm; three partitions with 0.9 m doorways, ten pieces of
 furniture; fixed seeds), fully observed. From start/goal pairs at least 16 moves apart, each navigator
 drives a pose by its own actions; a move is blocked as the harness blocks it (the agent's centre must keep
-``harness.navgrid.CLEARANCE_M`` from every obstacle along the move). Reports the median and p90 time per
+``harness.sim.navgrid.CLEARANCE_M`` from every obstacle along the move). Reports the median and p90 time per
 ``next_action`` (aim: 3 ms, navigation's share of DESIGN.md §8's 15 ms step), success, moves against the
 fewest possible for a 0.2 m body (breadth-first search over 0.25 m moves) and all actions taken. For the
 record, also one scikit-fmm distance field on the whole 5 cm map, the alternative the FMM navigator's
 lattice raster replaces.
 
-Part 2, the harness's own rooms (``harness.worldgen``, four kinds, fixed seeds): the ground-truth 5 cm map
-of each room (outside the floor and under blocking furniture) and a walk from the agent's start to every
+Part 2, the harness's own rooms (``harness.world.procedural``, four kinds, fixed seeds): the ground-truth 5 cm
+map of each room (outside the floor and under blocking furniture) and a walk from the agent's start to every
 piece of furniture, with moves checked by the harness's reachable grid. Shows how the body radius the
 navigator dilates obstacles by fits a simulator that lets the agent stand 0.125 m from walls.
 
@@ -19,14 +19,11 @@ Run: ``.venv/bin/python -m bench.navigation``; writes ``bench/results/navigation
 
 from __future__ import annotations
 
-import json
-import os
-import platform
+import sys
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -38,14 +35,19 @@ from agent.navigation.base import STEPS, NavGoal, NavGrids, Navigator, body_fits
 from agent.navigation.fmm import FmmConfig, FmmNavigator
 from agent.navigation.goals import interaction_goal_cells
 from agent.navigation.vin import VinNavigator
-from harness.navgrid import CLEARANCE_M, blocks_movement, reachable_grid
-from harness.world import World
-from harness.worldgen import generate_bathroom, generate_bedroom, generate_kitchen, generate_living_room
-from symbolic.cli_args import Parser, plain
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.sim.navgrid import CLEARANCE_M, blocks_movement, reachable_grid
+from harness.world.model import World
+from harness.world.procedural.generate import (
+    generate_bathroom,
+    generate_bedroom,
+    generate_kitchen,
+    generate_living_room,
+)
 from symbolic.thor import AGENT_RADIUS_M, GRID_STEP_M
 
 SEED = 0
-RESULTS = Path(__file__).resolve().parent / "results" / "navigation.json"
 CELL_M = 0.05
 STRIDE = round(GRID_STEP_M / CELL_M)  # cells per move
 SIDE = 240  # cells: 12 m
@@ -86,7 +88,10 @@ class Drive:
 def drive(
     navigator: Navigator, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal, can_move: MoveCheck
 ) -> Drive:
-    """Execute the navigator's actions; ``can_move(from_cell, to_cell)`` is the simulator's move rule."""
+    """Execute the navigator's actions; ``can_move(from_cell, to_cell)`` is the simulator's move rule. A
+    blocked move marks the spot it tried to reach in this drive's own collision layer, as the map does."""
+    collisions = np.zeros(grids.shape, dtype=bool)
+    grids = NavGrids(grids.obstacles, grids.explored, collisions)
     moves = actions = blocked = 0
     call_ms: list[float] = []
     while actions < MAX_ACTIONS:
@@ -101,7 +106,8 @@ def drive(
             here, there = frame.world_to_cell(pose.x, pose.z), frame.world_to_cell(after.x, after.z)
             if not can_move(here, there):
                 blocked += 1
-                navigator.record_collision(pose, decision.action, frame)
+                if frame.contains(*there):
+                    collisions[there] = True
                 continue
             moves += 1
         pose = after
@@ -287,25 +293,25 @@ def harness_rule(world: World, connected: np.ndarray, frame: GridFrame) -> MoveC
     return can_move
 
 
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> int:
+    # No options but --out; the parser answers --help and refuses stray arguments.
+    args = bench_parser("navigation", __doc__).parse_args(argv)
+    run = BenchRun.start("navigation", argv)
     results: dict[str, object] = {
         "seed": SEED,
-        "machine": {"cpu": platform.processor() or platform.machine(), "cores_visible": os.cpu_count()},
         "synthetic_rooms": synthetic_rooms(),
         "harness_rooms": harness_rooms(),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(results, indent=2) + "\n")
     synthetic = results["synthetic_rooms"]
     assert isinstance(synthetic, dict)
     line = ", ".join(
         f"{name} {stats['next_action_median_ms']} ms median, success {stats['success_rate']}"
         for name, stats in ((name, synthetic[name]) for name in NAVIGATORS)
     )
-    print(f"navigation: {line} -> {RESULTS}")
+    print(f"navigation: {line}")
+    run.write(args.out, results)
+    return 0
 
 
 if __name__ == "__main__":
-    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
-    Parser(prog="python -m bench.navigation", description=plain(__doc__.splitlines()[0])).parse_args()
-    main()
+    sys.exit(main())

@@ -2,28 +2,29 @@
 
 The issue's bar: on 100 generated valid_unseen TfD episodes with oracle subgoals, SR with learned perception
 (``learned``: RGB only) is at least half the SR with oracle perception. Every episode runs through a real
-service subprocess over HTTP (``harness.runner``), at 300x300 with TEACh's 90° camera, once per setting.
+service subprocess over HTTP (``harness.drive.runner``), at 300x300 with TEACh's 90° camera, once per setting.
 Episode i is the generator's valid_unseen game i (task i % 12); games the generator cannot make are skipped
 and listed.
 
 - ``oracle``: the service's oracle back-end (true depth and instance segmentation with every frame).
 - ``learned``: the service's learned back-end (``agent/perception/learned.py``), RGB only.
-- ``learned_depth`` / ``learned_segmentation``: one half learned, the other true. The service's session
-  schema names only ``oracle`` and ``learned``, so these run the same networks (``LearnedPerception``) in
-  the bench process and send their output through the oracle channels: the expected depth with the width
-  of its 90% interval as ``depth_uncertainty`` (the service then applies HLSM eq. (5) with the current
-  target's looser threshold and judges reach on the interval's far end, as its learned back-end does), or
-  learned classes split into instances at the true depth's discontinuities with their legend, marked
-  ``segmentation_ids_persistent: false`` (numbered afresh each frame, as the learned back-end's are). The
-  service's clicks still hit whatever object is under the pixel.
+- ``learned_depth`` / ``learned_segmentation``: one half learned, the other true. The harness runner drives
+  only the service's ``oracle`` and ``learned`` back-ends, so these run the same networks
+  (``LearnedPerception``) in the bench process and send their output through the oracle channels: the
+  expected depth with the width of its 90% interval as ``depth_uncertainty`` (the service then applies HLSM
+  eq. (5) with the current target's looser threshold and judges reach on the interval's far end, as its
+  learned back-end does), or learned classes split into instances at the true depth's discontinuities with
+  their legend, marked ``segmentation_ids_persistent: false`` (numbered afresh each frame, as the learned
+  back-end's are). The service's clicks still hit whatever object is under the pixel.
 
 Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
 --keep-other-settings`` measures some settings now and keeps the others the file holds for the same
-episodes. Writes ``bench/results/perception_ablation.json`` (24 games, all four settings); the issue's
-100-game run of ``oracle`` and ``learned`` is kept in ``perception_ablation_100.json`` (``--n 100 --settings
-oracle learned --out bench/results/perception_ablation_100.json``, about 90 minutes on 2 cores: 8 for oracle,
-80 for learned). ``--task NAME --out FILE`` runs only that task's episodes among the ``--n`` (to re-run one
-task after a change aimed at it).
+episodes when the same committed code measured them (a file never mixes code versions). Writes
+``bench/results/perception_ablation.json`` (24 games, all four settings); the issue's 100-game run of
+``oracle`` and ``learned`` is kept in ``perception_ablation_100.json`` (``--n 100 --settings oracle learned
+--out bench/results/perception_ablation_100.json``, about 90 minutes on 2 cores: 8 for oracle, 80 for
+learned). ``--task NAME --out FILE`` runs only that task's episodes among the ``--n`` (to re-run one task
+after a change aimed at it).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any, Literal
@@ -41,24 +42,19 @@ from tqdm import tqdm
 
 from agent.geometry import Camera
 from agent.perception.learned import LearnedConfig, LearnedPerception
-from harness.client import AgentClient, FrameEncoding, ServiceError
-from harness.metrics import EpisodeOutcome, aggregate
-from harness.render import Frame
-from harness.runner import (
-    DEFAULT_CAMERA,
-    EpisodeUnavailable,
-    Perception,
-    RunnerOptions,
-    episode_task_name,
-    generated_tfd_episode,
-    run_episode,
-)
-from harness.service import running_service
-from harness.splits import Split
+from bench.cli import bench_parser
+from bench.stamp import BenchRun, results_path
+from harness.drive.client import AgentClient, ServiceError
+from harness.drive.generated import EpisodeUnavailable, generated_tfd_episode
+from harness.drive.metrics import EpisodeOutcome, aggregate
+from harness.drive.runner import DEFAULT_CAMERA, Perception, RunnerOptions, episode_task_name, run_episode
+from harness.drive.service import running_service
+from harness.render.renderer import Frame
 from harness.tasks.teach import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, http_url, plain
+from harness.world.splits import Split
+from symbolic.cli_args import http_url
 
-RESULTS = Path(__file__).resolve().parent / "results" / "perception_ablation.json"
+RESULTS = results_path("perception_ablation")
 SPLIT: Split = "valid_unseen"
 SETTINGS: tuple[str, ...] = ("oracle", "learned_depth", "learned_segmentation", "learned")
 SR_RATIO_MIN = 0.5  # the issue: learned SR >= 50% of oracle SR
@@ -75,16 +71,8 @@ class HalfLearnedClient(AgentClient):
         self.half = half
         self.perception = LearnedPerception(camera, LearnedConfig())
 
-    def step(
-        self,
-        session_id: str,
-        frame: Frame,
-        *,
-        pose: Mapping[str, float] | None = None,
-        last_action_success: bool | None = None,
-        step_index: int | None = None,
-        encoding: FrameEncoding | None = None,
-    ) -> dict[str, Any]:
+    def step(self, session_id: str, frame: Frame, **options: Any) -> dict[str, Any]:
+        """The base client's step (same options) with the frame's one half replaced."""
         rgb = frame.rgb
         assert rgb is not None, "the runner renders rgb for every setting"
         if self.half == "depth":
@@ -98,14 +86,7 @@ class HalfLearnedClient(AgentClient):
             frame = dataclasses.replace(
                 frame, instances=seen.instances.astype(np.int32), legend=legend, instance_ids_persistent=False
             )
-        return super().step(
-            session_id,
-            frame,
-            pose=pose,
-            last_action_success=last_action_success,
-            step_index=step_index,
-            encoding=encoding,
-        )
+        return super().step(session_id, frame, **options)
 
 
 def run_one(setting: str, index: int, base_url: str) -> dict[str, Any]:
@@ -168,14 +149,17 @@ def run_setting(setting: str, indices: Sequence[int], base_url: str, workers: in
     }
 
 
-def earlier_settings(path: Path, indices: Sequence[int]) -> dict[str, Any]:
-    """The settings a previous run wrote to ``path`` over the same episodes (empty if none or others)."""
+def earlier_settings(path: Path, indices: Sequence[int], commit: str) -> dict[str, Any]:
+    """The settings a previous run wrote to ``path`` over the same episodes with ``commit``'s code, committed
+    (empty if there is no such file, or it holds other episodes, another commit or uncommitted code)."""
     if not path.is_file():
         return {}
     earlier = json.loads(path.read_text())
+    stamp = earlier.get("stamp", {})
     rows = earlier.get("settings", {})
     same = all([e["index"] for e in row.get("episodes", [])] == list(indices) for row in rows.values())
-    return dict(rows) if earlier.get("split") == SPLIT and same else {}
+    same_code = stamp.get("commit") == commit and stamp.get("dirty") is False
+    return dict(rows) if earlier.get("split") == SPLIT and same and same_code else {}
 
 
 def episode_indices(n: int, task: str | None = None) -> tuple[list[int], list[int]]:
@@ -194,12 +178,11 @@ def episode_indices(n: int, task: str | None = None) -> tuple[list[int], list[in
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.perception_ablation", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("perception_ablation", __doc__)
     parser.add_argument("--n", type=int, default=100, help="episodes (slot i is task i %% 12)")
     parser.add_argument("--settings", nargs="*", default=list(SETTINGS), choices=SETTINGS)
     parser.add_argument("--workers", type=int, default=2, help="episodes driven at once (2 cores)")
     parser.add_argument("--url", type=http_url, help="use a running service instead of starting one")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument(
         "--keep-other-settings",
         action="store_true",
@@ -213,6 +196,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.task is not None and args.out == RESULTS:
         parser.error("--task writes a part of the episodes: give it an --out of its own")
+    run = BenchRun.start("perception_ablation", argv)
     indices, skipped = episode_indices(args.n, args.task)
     results: dict[str, Any] = {}
     if args.url is not None:
@@ -221,7 +205,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with running_service() as service:
             results = {s: run_setting(s, indices, service.base_url, args.workers) for s in args.settings}
     if args.keep_other_settings:
-        results = {**earlier_settings(args.out, indices), **results}
+        results = {**earlier_settings(args.out, indices, run.commit), **results}
         results = {s: results[s] for s in SETTINGS if s in results}
     report: dict[str, Any] = {
         "split": SPLIT,
@@ -242,8 +226,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             "min": SR_RATIO_MIN,
             "met": ratio is not None and ratio >= SR_RATIO_MIN,
         }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n")
     print(f"{'setting':<22}{'SR':>8}{'GC':>8}{'TLW-SR':>8}")
     for name, row in results.items():
         if "refused" in row:
@@ -253,7 +235,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{name:<22}{row['success_rate']:>8.3f}{row['goal_condition_success_rate']:>8.3f}"
                 f"{row['path_length_weighted_success_rate']:>8.3f}"
             )
-    print(f"wrote {args.out}")
+    run.write(args.out, report)
     return 0
 
 

@@ -16,17 +16,19 @@ Run: ``.venv/bin/python -m bench.perception_quality [--worlds 60]``; writes
 from __future__ import annotations
 
 import json
+import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from agent.perception.learned import LearnedConfig
-from harness.camera import CameraSpec
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from harness.perception_data import render_frames
+from harness.render.camera import CameraSpec
 from models.perception.dataset import load_frames
-from symbolic.cli_args import Parser, plain
 
-RESULTS = Path(__file__).resolve().parent / "results" / "perception_quality.json"
 SEED = 0
 DEPTH_ABS_REL_MAX = 0.15
 SEGMENTATION_MIOU_MIN = 0.6
@@ -57,8 +59,8 @@ def _headline(depth: dict[str, Any], segmentation: dict[str, Any]) -> dict[str, 
     }
 
 
-def main() -> None:
-    parser = Parser(prog="python -m bench.perception_quality", description=plain(__doc__.splitlines()[0]))
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = bench_parser("perception_quality", __doc__)
     parser.add_argument(
         "--frames", type=Path, default=None, help="evaluate on this folder instead of rendering"
     )
@@ -67,7 +69,8 @@ def main() -> None:
     )
     parser.add_argument("--compare-depth", type=Path, nargs="*", default=[])
     parser.add_argument("--threads", type=int, default=2)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    run = BenchRun.start("perception_quality", argv)
     import torch  # torch loads after parsing, so --help answers at once
 
     from models.perception.engine import resolve
@@ -113,13 +116,12 @@ def main() -> None:
             "segmentation_met": seg["miou"] >= SEGMENTATION_MIOU_MIN,
         },
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
     summary = {k: v for k, v in result.items() if k != "segmentation"}
     summary["segmentation"] = {k: seg[k] for k in ("miou", "task_miou", "pixel_accuracy", "task_class_iou")}
     print(json.dumps(summary, indent=2))
-    print(f"wrote {RESULTS}")
+    run.write(args.out, result)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -29,16 +29,11 @@ Run: ``.venv/bin/python -m bench.perception_speed [--threads 1]``; writes
 from __future__ import annotations
 
 import json
-import os
-import platform
 import random
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from functools import partial
-from importlib.metadata import version
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -48,19 +43,19 @@ from agent.exploration_gt import DEFAULT_CHECKPOINT as GT_CHECKPOINT
 from agent.geometry import Camera
 from agent.perception.base import Observation
 from agent.perception.learned import LearnedConfig, LearnedModels, LearnedPerception, load_learned_models
-from bench.tatc_commander import current_commit
-from harness.camera import CameraSpec
-from harness.navgrid import reachable_grid
-from harness.render import Renderer
-from harness.splits import world_seed
-from harness.worldgen import WorldGenConfig, generate_world
-from symbolic.cli_args import Parser, plain
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
+from harness.world.splits import world_seed
 from symbolic.thor import TEACH_HFOV_DEG
 
 if TYPE_CHECKING:
     import torch
 
-RESULTS = Path(__file__).resolve().parent / "results" / "perception_speed.json"
 SEED = 0
 BUDGET_300_MEDIAN_MS = 80.0
 SIDES = (300, 900)
@@ -248,15 +243,15 @@ def _perceptions(side: int, models: LearnedModels) -> dict[str, LearnedPerceptio
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.perception_speed", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("perception_speed", __doc__)
     parser.add_argument(
         "--threads", type=int, default=1, help="intra-op threads (2 oversubscribe a busy machine)"
     )
     parser.add_argument("--frames", type=int, default=8, help="frames timed per side")
     parser.add_argument("--repeats", type=int, default=5, help="timed calls per frame, part and engine")
     parser.add_argument("--agreement-frames", type=int, default=60, help="frames the engines are compared on")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    run = BenchRun.start("perception_speed", argv)
     import torch  # torch and the models load after parsing, so --help answers at once
 
     from models.goal_transformer.policy import load_goal_policy
@@ -264,21 +259,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     from models.perception.network import inference_dtype
 
     torch.set_num_threads(args.threads)
-    load_before = os.getloadavg()[0]
     config = LearnedConfig()
     started = time.perf_counter()
     models = load_learned_models(config.networks.depth, config.networks.segmentation, config)
     load_s = time.perf_counter() - started  # what the service's preload pays: checkpoints and export
     labels = engine_configs(config)
     results: dict[str, Any] = {
-        "commit": current_commit(),
-        "command": " ".join(["python", "-m", "bench.perception_speed", *(argv or sys.argv[1:])]),
-        "machine": {
-            "cpu": platform.processor() or platform.machine(),
-            "cores_visible": os.cpu_count(),
-            "native_bfloat16": inference_dtype("auto") == torch.bfloat16,
-        },
-        "versions": {name: version(name) for name in ("torch", "onnxruntime", "onnx")},
+        "native_bfloat16": inference_dtype("auto") == torch.bfloat16,
         "threads": args.threads,
         "engines": {
             label: dict(zip(("engine", "dtype"), _named(*resolve(c.engine, c.precision)), strict=True))
@@ -335,9 +322,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     results["budget_300_median_ms"] = BUDGET_300_MEDIAN_MS
     results["ratio_300_median_to_budget"] = round(step["median_ms"] / BUDGET_300_MEDIAN_MS, 3)
     results["ratio_300_cpu_median_to_budget"] = round(step["cpu_median_ms"] / BUDGET_300_MEDIAN_MS, 3)
-    results["load_average_1min"] = {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2) + "\n")
     for label in labels:
         row = results["300x300"][label]["step"]
         print(f"300x300 step, {label}: median {row['median_ms']} ms, p90 {row['p90_ms']} ms", end="")
@@ -345,7 +329,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ratio = results["ratio_300_median_to_budget"]
     print(f"{budget_engine} float32: {ratio} of the {BUDGET_300_MEDIAN_MS} ms budget")
     print(json.dumps(results["agreement_with_torch_float32"], indent=2))
-    print(f"wrote {args.out}")
+    run.write(args.out, results)
     return 0
 
 

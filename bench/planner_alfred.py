@@ -18,19 +18,17 @@ types in turn); writes ``bench/results/planner_alfred.json``. Needs the shared d
 
 from __future__ import annotations
 
-import platform
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
 from bench.planner_tfd import checkpoint_summary, episode_bench_parser, write_report
-from bench.tatc_commander import current_commit, level_summary, runs_for_commit
-from harness.evaluate import ALFRED_CAMERA_SIDE, EvalConfig, episode_for, evaluate, finished_records
-from harness.runner import service_url
+from bench.stamp import BenchRun, runs_for_commit
+from bench.tatc_commander import level_summary
+from harness.drive.evaluate import ALFRED_CAMERA_SIDE, EvalConfig, episode_for, evaluate, finished_records
+from harness.drive.service import service_url
 from symbolic.thor import ALFRED_HFOV_DEG
 
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_alfred.json"
 SPLIT = "valid_seen"  # the only ALFRED validation split in the shared data
 
 
@@ -79,9 +77,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
 
-    commit = current_commit()  # the code the service starts with
-    runs = runs_for_commit(args.run_dir, commit)
-    started = time.perf_counter()
+    run = BenchRun.start("planner_alfred", argv)
+    runs = runs_for_commit(args.run_dir, run.commit)
     with service_url(args.url, None, start=args.url is None) as url:
         oracle = evaluate(alfred_config("oracle", args.n), runs / "oracle", url, args.workers)
         model = evaluate(alfred_config("model", args.n), runs / "model", url, args.workers)
@@ -97,15 +94,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "oracle_planner": oracle_summary,
         "sr_cost_of_reading": round(oracle_summary["sr"] - model_summary["sr"], 4),
         "changed": changed_episodes(runs, args.n),
-        "commit": commit,
-        "machine": platform.platform(),
-        "wall_s": round(time.perf_counter() - started, 1),
     }
     headline = (
         f"SR {model_summary['sr']:.3f} with the model planner, {oracle_summary['sr']:.3f} with the expert's "
         f"subgoals (n={model_summary['n']})"
     )
-    write_report(RESULTS, report, headline)
+    write_report(run, args.out, report, headline)
     return 0
 
 

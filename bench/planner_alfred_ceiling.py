@@ -28,15 +28,15 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.data import alfred_plan, read_jsonl_gz
 from models.planner.text import format_instruction
-from symbolic.cli_args import Parser, plain
 from symbolic.data_dir import require_data_dir
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.subgoals import format_subgoals
 
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_alfred_ceiling.json"
 BAR_EXACT, BAR_NORMALISED = 0.60, 0.75
 _NOT_LETTERS = re.compile(r"[^a-z ]+")
 
@@ -106,11 +106,11 @@ def scores(pairs: Sequence[tuple[str, str, str, str]]) -> dict[str, object]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.planner_alfred_ceiling", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("planner_alfred_ceiling", __doc__)
     parser.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
-    parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args(argv)
+    run = BenchRun.start("planner_alfred_ceiling", argv)
     import torch  # torch and transformers load after parsing, so --help answers at once
 
     from models.planner.evaluate import drop_fetch_container_open_close
@@ -184,10 +184,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         },
         "model": model(seen),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     print(json.dumps(result, indent=2))
-    print(f"wrote {args.out}")
+    run.write(args.out, result)
     return 0
 
 

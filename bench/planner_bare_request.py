@@ -18,22 +18,21 @@ runs with ``JARVIS_PLANNER_CHECKPOINT=<dir>`` (the service reads it; the report 
 from __future__ import annotations
 
 import json
-import platform
 import re
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from bench.planner_tfd import SPLIT, checkpoint_summary, episode_bench_parser, write_report
-from bench.tatc_commander import current_commit, level_summary, runs_for_commit
+from bench.stamp import BenchRun, results_path, runs_for_commit
+from bench.tatc_commander import level_summary
+from harness.drive.evaluate import EvalConfig, evaluate
+from harness.drive.runner import DEFAULT_CAMERA
+from harness.drive.service import service_url
 from harness.episodes.generate import GenerateConfig, generate
-from harness.evaluate import EvalConfig, evaluate
-from harness.runner import DEFAULT_CAMERA, service_url
 from models.planner.data import bare_request
 
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_bare_request.json"
-WHOLE_DIALOGUE = Path(__file__).resolve().parent / "results" / "planner_tfd.json"
+WHOLE_DIALOGUE = results_path("planner_tfd")
 GAME_INDEX = re.compile(r"index (\d+)")
 
 
@@ -70,8 +69,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--teach", type=Path, help="generated valid_unseen games (default: generate them)")
     args = parser.parse_args(argv)
 
-    commit = current_commit()
-    runs = runs_for_commit(args.run_dir, commit)
+    run = BenchRun.start("planner_bare_request", argv)
+    runs = runs_for_commit(args.run_dir, run.commit)
     teach = args.teach
     if teach is None:
         teach = runs / "teach"
@@ -87,7 +86,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         hfov_deg=DEFAULT_CAMERA.hfov_deg,
         planner="model",
     )
-    started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
         result = evaluate(config, runs / "episodes", url, args.workers)
     summary = level_summary(result)
@@ -101,14 +99,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         "planner_checkpoint": checkpoint_summary(),
         "result": summary,
         "whole_dialogue_sr": whole["result"]["sr"] if whole else None,
+        "whole_dialogue_commit": whole.get("stamp", {}).get("commit") if whole else None,
         "games_left_out": bare["left_out_nothing_to_take_off"],
         "requests": bare["requests"],
-        "commit": commit,
-        "machine": platform.platform(),
-        "wall_s": round(time.perf_counter() - started, 1),
     }
     write_report(
-        RESULTS,
+        run,
+        args.out,
         report,
         f"SR {summary['sr']:.3f} GC {summary['gc']:.3f} (n={summary['n']}) with bare requests",
     )

@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
-import platform
 import statistics
 import sys
 import time
@@ -39,14 +38,14 @@ from typing import TYPE_CHECKING, Any
 
 from agent.model_planner import ModelPlanner
 from agent.planning import DialogueTurn, PlannerConfig, PlanningContext
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from bench.step_latency import episodes, measure_concurrency
-from bench.tatc_commander import current_commit
-from harness.runner import RunnerOptions
-from harness.service import running_service
+from harness.drive.runner import RunnerOptions
+from harness.drive.service import running_service
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.config import GenerationConfig
 from models.planner.data import DatasetFiles, PlannerExample, handwritten_examples, read_examples
-from symbolic.cli_args import Parser, plain
 from symbolic.data_dir import REPO_ROOT
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import parse_subgoals
@@ -54,7 +53,6 @@ from symbolic.subgoals import parse_subgoals
 if TYPE_CHECKING:
     from models.planner.predict import SubgoalGenerator
 
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_latency.json"
 HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
 INSTRUCTIONS = (
     "Put a clean mug in the coffee machine.",
@@ -209,15 +207,15 @@ def _timed(label: str, run: Callable[[], Any]) -> Any:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.planner_latency", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("planner_latency", __doc__)
     parser.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR)
     parser.add_argument(
         "--threads", type=int, default=1, help="torch and ONNX Runtime threads (one per worker)"
     )
     parser.add_argument("--sessions", type=int, default=32, help="sessions stepping meanwhile (0: none)")
     parser.add_argument("--data", type=Path, nargs="*", default=[], help="build-data folders for agreement")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    run = BenchRun.start("planner_latency", argv)
     os.environ.setdefault("HF_HUB_OFFLINE", "1")
     import torch  # torch and transformers load after parsing, so --help answers at once
 
@@ -225,7 +223,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
-    load_before = os.getloadavg()[0]
     base = SubgoalGenerator.from_directory(args.checkpoint, ontology, GenerationConfig(engine="torch"))
     started = time.perf_counter()
     fast = SubgoalGenerator(base.planner, ontology, GenerationConfig(engine="onnx"))
@@ -251,8 +248,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         }
     agreed = _timed("agreement", lambda: agreement(generators, evaluation_sets(args.data)))
     result = {
-        "commit": current_commit(),
-        "command": " ".join(["python", "-m", "bench.planner_latency", *(argv or sys.argv[1:])]),
         "checkpoint": str(args.checkpoint),
         "threads": args.threads,
         "num_beams": base.generation.num_beams,
@@ -262,17 +257,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "alone": alone,
         "under_load": under_load,
         "agreement": agreed,
-        "machine": {
-            "cpu": platform.machine(),
-            "cpus": os.cpu_count(),
-            "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)},
-            "python": platform.python_version(),
-            "torch": torch.__version__,
-        },
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     print(json.dumps(result, indent=2))
+    run.write(args.out, result)
     return 0
 
 

@@ -28,11 +28,12 @@ from pathlib import Path
 from typing import Any
 
 from agent.planning import belief_after
-from bench.provenance import provenance
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.data import alfred_plan, read_jsonl_gz, teach_instance_files, teach_task_type
 from models.planner.text import format_planner_input
-from symbolic.cli_args import Parser, existing_dir, plain
+from symbolic.cli_args import existing_dir
 from symbolic.data_dir import default_data_dir
 from symbolic.ontology import Ontology, UnknownObjectType, load_ontology
 from symbolic.repair import repair_plan
@@ -48,7 +49,6 @@ from symbolic.subgoals import (
 
 TESTS_DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 REPO_ROOT = Path(__file__).resolve().parent.parent
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_requests.json"
 BATCH = 32
 
 
@@ -194,12 +194,12 @@ def score_set(name: str, dialogues: Sequence[Dialogue], ontology: Ontology) -> d
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.planner_requests", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("planner_requests", __doc__)
     parser.add_argument("--teach", type=existing_dir, help="generated valid_unseen games (harness generate)")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="the JSON result file")
     parser.add_argument("--threads", type=int, default=1, help="torch threads")
     parser.add_argument("--skip-alfred", action="store_true", help="leave out ALFRED valid_seen task_desc")
     args = parser.parse_args(argv)
+    run = BenchRun.start("planner_requests", argv)
     import torch
 
     torch.set_num_threads(args.threads)
@@ -217,15 +217,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     started = time.perf_counter()
     reports = [score_set(name, dialogues, ontology) for name, dialogues in sets.items()]
     result = {
-        **provenance("planner_requests", argv),
         "checkpoint": str(DEFAULT_CHECKPOINT_DIR.relative_to(REPO_ROOT)),
         "scored": "model: validated plan vs reference; repaired: repair_plan of both; covered: "
         "cover_request then repair_plan vs the repaired reference",
         "sets": reports,
         "wall_s": round(time.perf_counter() - started, 1),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     for report in reports:
         print(
             f"{report['name']:<32} n={report['model']['n']:<4} "
@@ -234,7 +231,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"covered {report['covered']['exact']:.3f} / {report['covered']['f1']:.3f} | "
             f"changed {report['changed']} (+{report['gained_exact']} -{report['lost_exact']})"
         )
-    print(f"wrote {args.out}")
+    run.write(args.out, result)
     return 0
 
 

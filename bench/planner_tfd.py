@@ -17,20 +17,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from app.settings import Settings
-from bench.tatc_commander import current_commit, level_summary, runs_for_commit
-from harness.evaluate import EvalConfig, evaluate
-from harness.runner import DEFAULT_CAMERA, service_url
-from harness.splits import Split
-from symbolic.cli_args import Parser, http_url, plain
+from bench.cli import bench_parser
+from bench.stamp import BenchRun, runs_for_commit
+from bench.tatc_commander import level_summary
+from harness.drive.evaluate import EvalConfig, evaluate
+from harness.drive.runner import DEFAULT_CAMERA
+from harness.drive.service import service_url
+from harness.world.splits import Split
+from symbolic.cli_args import http_url
 
-RESULTS = Path(__file__).resolve().parent / "results" / "planner_tfd.json"
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[1] / "models" / "checkpoints" / "planner"
 SPLIT: Split = "valid_unseen"
 SR_BAR = 0.60  # the planner issue's bar on SR with the model planner and oracle perception
@@ -50,7 +50,7 @@ def checkpoint_summary() -> dict[str, Any]:
 def episode_bench_parser(name: str, doc: str | None, n: int, n_help: str) -> argparse.ArgumentParser:
     """The options every planner SR bench takes: how many episodes, workers, a resumable run folder under
     ``runs/bench/<name>``, and a running service to use instead of starting one."""
-    parser = Parser(prog=f"python -m bench.{name}", description=plain((doc or "").splitlines()[0]))
+    parser = bench_parser(name, doc)
     parser.add_argument("--n", type=int, default=n, help=n_help)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
@@ -64,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = episode_bench_parser("planner_tfd", __doc__, 100, "episodes (slot i is task i %% 12)")
     args = parser.parse_args(argv)
 
-    commit = current_commit()  # the code the service starts with
+    run = BenchRun.start("planner_tfd", argv)
     config = EvalConfig(
         benchmark="tfd",
         split=SPLIT,
@@ -73,9 +73,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         hfov_deg=DEFAULT_CAMERA.hfov_deg,
         planner="model",
     )
-    started = time.perf_counter()
     with service_url(args.url, None, start=args.url is None) as url:
-        result = evaluate(config, runs_for_commit(args.run_dir, commit), url, args.workers)
+        result = evaluate(config, runs_for_commit(args.run_dir, run.commit), url, args.workers)
     summary = level_summary(result)
     report: dict[str, Any] = {
         "benchmark": "tfd_model_planner",
@@ -85,25 +84,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         "planner_checkpoint": checkpoint_summary(),
         "result": summary,
         "bar": {"sr_at_least": SR_BAR, "met": summary["sr"] >= SR_BAR},
-        "commit": commit,
-        "machine": platform.platform(),
-        "wall_s": round(time.perf_counter() - started, 1),
     }
     verdict = "met" if report["bar"]["met"] else "NOT met"
-    write_report(RESULTS, report, f"SR {summary['sr']:.3f} (n={summary['n']}) vs bar {SR_BAR}: {verdict}")
+    write_report(
+        run, args.out, report, f"SR {summary['sr']:.3f} (n={summary['n']}) vs bar {SR_BAR}: {verdict}"
+    )
     return 0
 
 
-def write_report(path: Path, report: dict[str, Any], headline: str) -> None:
-    """Write a planner SR bench's JSON and print its headline and SR per task."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(report, indent=2) + "\n")
+def write_report(run: BenchRun, path: Path, report: dict[str, Any], headline: str) -> None:
+    """Print a planner SR bench's headline and SR per task, and write its JSON."""
     print(headline)
     per_task = sorted(report["result"]["per_task_sr"].items())
     width = max((len(task) for task, _ in per_task), default=0) + 2
     for task, sr in per_task:
         print(f"  {task:<{width}}{sr:.3f}")
-    print(f"wrote {path}")
+    run.write(path, report)
 
 
 if __name__ == "__main__":

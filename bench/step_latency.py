@@ -20,31 +20,26 @@ Run: ``.venv/bin/python -m bench.step_latency``; writes ``bench/results/step_lat
 from __future__ import annotations
 
 import contextlib
-import json
-import os
-import platform
 import re
-import sys
 import time
 from collections import defaultdict
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bench.tatc_commander import current_commit
-from harness.client import AgentClient
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.drive.client import AgentClient
+from harness.drive.generated import EpisodeUnavailable, generated_tfd_episode
+from harness.drive.runner import EpisodeRun, RunnerOptions, run_episode
+from harness.drive.service import RunningService, running_service
 from harness.episodes.model import Episode
-from harness.runner import EpisodeRun, EpisodeUnavailable, RunnerOptions, generated_tfd_episode, run_episode
-from harness.service import RunningService, running_service
-from harness.splits import Split
 from harness.tasks.teach import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, plain
+from harness.world.splits import Split
 
-RESULTS = Path(__file__).resolve().parent / "results" / "step_latency.json"
 SPLIT: Split = "valid_unseen"
 BUDGET_MEDIAN_MS = 15.0
 BUDGET_P99_MS = 40.0
@@ -162,14 +157,13 @@ def measure_concurrency(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.step_latency", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("step_latency", __doc__)
     parser.add_argument("--episodes", type=int, default=6, help="episodes timed one at a time")
     parser.add_argument("--sessions", type=int, default=32, help="concurrent sessions")
     parser.add_argument("--concurrent-steps", type=int, default=60, help="step cap per concurrent session")
-    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
+    run = BenchRun.start("step_latency", argv)
     options = RunnerOptions()
-    load_before = os.getloadavg()[0]
     batch = episodes(max(args.episodes, len(BENCHMARK_TASKS)), options)
     with running_service() as service:
         latency = measure_latency(service, batch[: args.episodes], options)
@@ -184,16 +178,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             "frames": "rgb png + depth png16_mm + segmentation png16, base64 JSON",
             "split": SPLIT,
         },
-        "machine": {"cpu": platform.machine(), "cores_visible": os.cpu_count()},
-        "commit": current_commit(),
-        "command": " ".join(["python", "-m", "bench.step_latency", *(argv or sys.argv[1:])]),
         "service": "one worker, in-memory store, its defaults (1 torch/OpenCV thread, 2 requests at a time)",
-        "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2)},
         "latency": latency,
         "concurrency": concurrency,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2))
     step = latency["server_step"]
     print(
         f"server-side step: median {step.get('median_ms')} ms (budget {BUDGET_MEDIAN_MS}), "
@@ -205,7 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{concurrency['throughput_steps_per_s']} steps/s, server-side under load "
         f"{concurrency['server_step_under_load']}"
     )
-    print(f"wrote {args.out}")
+    run.write(args.out, result)
     return 0
 
 

@@ -13,23 +13,22 @@ Run: ``.venv/bin/python -m bench.step_speed``; writes ``bench/results/step_speed
 
 from __future__ import annotations
 
-import json
-import os
-import platform
 import random
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
-from pathlib import Path
 
 import numpy as np
 
-from harness.camera import CameraSpec
-from harness.clicks import click_point_of
-from harness.simulator import Simulator
-from harness.world import World
-from harness.worldgen import WorldGenConfig, generate_world
-from symbolic.cli_args import Parser, plain
+from bench.cli import bench_parser
+from bench.stamp import BenchRun
+from harness.render.camera import CameraSpec
+from harness.sim.clicks import click_point_of
+from harness.sim.simulator import Simulator
+from harness.world.model import World
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
 from symbolic.ontology import load_ontology
 from symbolic.thor import (
     ALFRED_HFOV_DEG,
@@ -40,7 +39,6 @@ from symbolic.thor import (
 )
 
 SEED = 0
-RESULTS = Path(__file__).resolve().parent / "results" / "step_speed.json"
 RUNS: tuple[tuple[CameraSpec, int], ...] = (
     (CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG), 60),
     (CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG), 20),
@@ -124,13 +122,15 @@ def time_interactions(
     return timings, round(successes / n, 3)
 
 
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> int:
+    # No options but --out; the parser answers --help and refuses stray arguments.
+    args = bench_parser("step_speed", __doc__).parse_args(argv)
+    run = BenchRun.start("step_speed", argv)
     rng = random.Random(SEED)
     world = generate_world(WorldGenConfig(kind="kitchen", seed=SEED))
     results: dict[str, object] = {
         "seed": SEED,
         "scene": f"generated kitchen {world.name}, {len(world.objects)} objects",
-        "machine": {"cpu": platform.processor() or platform.machine(), "cores_visible": os.cpu_count()},
     }
     lines = []
     for spec, n in RUNS:
@@ -145,12 +145,10 @@ def main() -> None:
             f"interaction cold {median['interaction_step_cold']} ms, "
             f"after observe {median['interaction_step_after_observe']} ms"
         )
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(results, indent=2) + "\n")
-    print("step_speed: " + "; ".join(lines) + f" -> {RESULTS}")
+    print("step_speed: " + "; ".join(lines))
+    run.write(args.out, results)
+    return 0
 
 
 if __name__ == "__main__":
-    # No options; the parser answers --help and refuses stray arguments instead of running the benchmark.
-    Parser(prog="python -m bench.step_speed", description=plain(__doc__.splitlines()[0])).parse_args()
-    main()
+    sys.exit(main())

@@ -2,8 +2,8 @@
 commander's instructions are worth by themselves.
 
 The issue's bar: with full information, SR ≥ 70% on 100 generated valid_unseen episodes. Each level is a
-``python -m harness eval --benchmark tatc`` run (``harness.evaluate``: episode i is the generated game i,
-task i % 12; the commander bot in the harness process, the follower a real service subprocess reached over
+``python -m harness eval --benchmark tatc`` run (``harness.drive.evaluate``: episode i is the generated game
+i, task i % 12; the commander bot in the harness process, the follower a real service subprocess reached over
 HTTP; frames at 300x300 with depth and segmentation, as ``harness eval`` defaults). The runs go to
 ``--run-dir DIR/<level>`` and resume when started again by the same commit. Beside them, the same commander
 with a follower that carries out each instruction to the letter
@@ -16,10 +16,6 @@ Run: ``.venv/bin/python -m bench.tatc_commander [--n 100] [--n-other 24] [--work
 
 from __future__ import annotations
 
-import json
-import platform
-import shutil
-import subprocess
 import time
 from collections import Counter
 from collections.abc import Sequence
@@ -28,36 +24,19 @@ from typing import Any, get_args
 
 from tqdm import tqdm
 
+from bench.cli import bench_parser
+from bench.stamp import BenchRun, runs_for_commit
 from harness.commander.bot import InfoLevel
 from harness.commander.episode import run_obedient_episode
-from harness.evaluate import EvalConfig, evaluate
-from harness.runner import DEFAULT_CAMERA, EpisodeUnavailable, generated_tfd_episode, service_url
-from harness.splits import Split
-from symbolic.cli_args import Parser, http_url, plain
+from harness.drive.evaluate import EvalConfig, evaluate
+from harness.drive.generated import EpisodeUnavailable, generated_tfd_episode
+from harness.drive.runner import DEFAULT_CAMERA
+from harness.drive.service import service_url
+from harness.world.splits import Split
+from symbolic.cli_args import http_url
 
-RESULTS = Path(__file__).resolve().parent / "results" / "tatc_commander.json"
 SPLIT: Split = "valid_unseen"
 SR_BAR = 0.70  # the issue's bar on SR with full information
-
-
-def current_commit() -> str:
-    done = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False
-    )
-    return done.stdout.strip() or "unknown"
-
-
-def runs_for_commit(folder: Path, commit: str) -> Path:
-    """``folder``, ready to resume only episodes run by this commit's code: a folder left by another
-    commit (or by one not recorded) is cleared first, and said so, so a bench never mixes code versions."""
-    marker = folder / "commit"
-    if folder.exists() and (not marker.exists() or marker.read_text().strip() != commit):
-        was = marker.read_text().strip() if marker.exists() else "an unrecorded commit"
-        print(f"{folder}: results of {was}, not {commit}; starting afresh")
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    marker.write_text(commit + "\n")
-    return folder
 
 
 def level_summary(result: dict[str, Any]) -> dict[str, Any]:
@@ -99,7 +78,7 @@ def obedient(n: int) -> dict[str, Any]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.tatc_commander", description=plain(__doc__.splitlines()[0]))
+    parser = bench_parser("tatc_commander", __doc__)
     parser.add_argument("--n", type=int, default=100, help="episodes with full information")
     parser.add_argument("--n-other", type=int, default=24, help="episodes at the two other levels")
     parser.add_argument("--levels", nargs="+", default=list(get_args(InfoLevel)), choices=get_args(InfoLevel))
@@ -112,9 +91,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     levels: dict[str, Any] = {}
-    commit = current_commit()  # what the service starts with (later commits never reach it)
-    runs = runs_for_commit(args.run_dir, commit)
-    started = time.perf_counter()
+    run = BenchRun.start("tatc_commander", argv)
+    runs = runs_for_commit(args.run_dir, run.commit)
     with service_url(args.url, None, start=args.url is None) as url:
         for level in args.levels:
             n = args.n if level == "full" else args.n_other
@@ -141,19 +119,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             "met": levels["full"]["sr"] >= SR_BAR if "full" in levels else None,
         },
         "obedient_follower": bound,
-        "commit": commit,
-        "machine": platform.platform(),
-        "wall_s": round(time.perf_counter() - started, 1),
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n")
     for level, row in levels.items():
         print(
             f"{level:<18} n={row['n']:>3}  SR {row['sr']:.3f}  GC {row['gc']:.3f}  TLW-SR {row['tlw_sr']:.3f}"
         )
     if bound is not None:
         print(f"obedient follower  n={bound['n']:>3}  SR {bound['sr']:.3f}")
-    print(f"wrote {RESULTS}")
+    run.write(args.out, report)
     return 0
 
 

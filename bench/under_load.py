@@ -30,22 +30,26 @@ import os
 import threading
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import httpx
-import redis
 from tqdm import tqdm
 
-from bench.load_fault import RecordedEpisode, distribution, measured_run, record_episode
-from bench.provenance import provenance, write_results
+from bench.cli import bench_parser
+from bench.load_fault import (
+    DEFAULT_REDIS,
+    RecordedEpisode,
+    distribution,
+    measured_run,
+    record_episode,
+    require_redis,
+)
+from bench.stamp import BenchRun
 from bench.step_latency import episodes, measure_concurrency, server_step_ms
+from harness.drive.runner import RunnerOptions
+from harness.drive.service import running_service
 from harness.episodes.model import Episode
-from harness.runner import RunnerOptions
-from harness.service import running_service
-from symbolic.cli_args import Parser, plain
 
-RESULTS = Path(__file__).resolve().parent / "results" / "under_load.json"
 BARS = {
     "step_median_ms_4_sessions": 12.0,
     "step_p99_ms_4_sessions": 30.0,
@@ -167,23 +171,19 @@ def ratio(numerator: float | None, denominator: float | None) -> float | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = Parser(prog="python -m bench.under_load", description=plain(__doc__.split("\n\n")[0]))
+    parser = bench_parser("under_load", __doc__)
     parser.add_argument("--episodes", type=int, default=6, help="games played alone and recorded")
     parser.add_argument("--together", type=int, default=4, help="live sessions stepping at once")
     parser.add_argument("--sessions", type=int, default=32, help="replaying sessions for throughput")
     parser.add_argument("--steps", type=int, default=300, help="steps each replaying session sends")
     parser.add_argument("--planner-calls", type=int, default=30, help="planner calls with nothing else on")
-    parser.add_argument("--redis", default="redis://127.0.0.1:6379/0", help="Redis URL for the 32 sessions")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results file")
+    parser.add_argument("--redis", default=DEFAULT_REDIS, help="Redis URL for the 32 sessions")
     args = parser.parse_args(argv)
     if min(args.episodes, args.together, args.sessions, args.steps, args.planner_calls) < 1:
         parser.error("every count must be at least 1")
-    try:
-        redis.Redis.from_url(args.redis, socket_connect_timeout=2.0).ping()
-    except redis.RedisError as error:
-        parser.error(f"no Redis answers at {args.redis} ({error}); start one (README: scale-out)")
+    require_redis(parser, args.redis)
 
-    started = time.time()
+    run = BenchRun.start("under_load", argv)
     arrays = RunnerOptions(frames="arrays", transport="multipart")
     batch = episodes(max(args.episodes, args.together), arrays)
     recorded, alone = play_alone(batch[: args.episodes], arrays)
@@ -217,7 +217,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         "two_over_one_worker_steps_per_s": ratio(two_workers["steps_per_s"], one_worker["steps_per_s"]),
     }
     report = {
-        **provenance("under_load", argv),
         "frames": "300x300 hfov 90 oracle perception; arrays (.npy RGB and ids, float32 depth) in multipart "
         "unless said otherwise",
         "bars": {
@@ -248,9 +247,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "throughput": {"one_worker": one_worker, "two_workers": two_workers},
         "planner": {"alone": planner_quiet, "while_sessions_step": planner_loaded, "sessions": args.sessions},
         "learned_perception": perception,
-        "wall_s": round(time.time() - started, 1),
     }
-    write_results(args.out, report, "bars")
+    print(json.dumps(report["bars"], indent=2))
+    run.write(args.out, report)
     return 0
 
 

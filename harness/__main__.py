@@ -10,12 +10,18 @@ import importlib
 import sys
 
 COMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("harness.demo", "start the service, run one kitchen TEACh episode over HTTP, show the results"),
-    "run": ("harness.runner", "drive one episode through a running service and print its metrics"),
+    "demo": (
+        "harness.drive.demo",
+        "start the service, run one kitchen TEACh episode over HTTP, show the results",
+    ),
+    "run": ("harness.drive.run_cli", "drive one episode through a running service and print its metrics"),
     "generate": ("harness.episodes.generate", "write TEACh-format games, EDH and TfD instances"),
     "expert": ("harness.expert.cli", "measure the expert's success rate per task, with failure reasons"),
     "commander": ("harness.commander.cli", "one TATC episode: the commander bot talks to the follower"),
-    "eval": ("harness.evaluate", "run a benchmark's episodes against the service; resumable TEACh metrics"),
+    "eval": (
+        "harness.drive.evaluate",
+        "run a benchmark's episodes against the service; resumable TEACh metrics",
+    ),
 }
 
 

@@ -6,7 +6,7 @@ code reads (documented in ``models/perception/dataset.py`` and ``models/goal_tra
 - ``frames``: RGB, depth and instance segmentation from poses an agent actually takes (reachable cells,
   TEACh's four yaws, horizons -30..60 in 30° steps) in worlds whose openables, toggleables and sliceables
   are put in random states, so open fridges, slices and lit stoves appear as they do mid-task. Train worlds
-  for ``--split train``, unseen worlds for ``valid_unseen`` (``harness.splits``), so "unseen" holds.
+  for ``--split train``, unseen worlds for ``valid_unseen`` (``harness.world.splits``), so "unseen" holds.
 - ``search``: the search phases the goal transformer imitates (JARVIS §3, "GT predicts the next action"
   when the target is not in the map): from a pose where the target is not in view, the shortest sequence
   of TEACh's six body motions to a pose where it is (breadth-first over cells × yaws, the expert's
@@ -31,15 +31,16 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from harness import physics
-from harness.camera import CameraSpec
-from harness.navgrid import reachable_grid
-from harness.render import Frame, Renderer
-from harness.splits import Split, world_seed
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Frame, Renderer
+from harness.sim import physics
+from harness.sim.navgrid import reachable_grid
 from harness.tasks.sampling import parameter_space, task_needs
 from harness.tasks.teach_definitions import BENCHMARK_TASKS, make_task_instance
-from harness.world import RoomKind, World, WorldObject
-from harness.worldgen import WorldGenConfig, WorldGenError, generate_world
+from harness.world.model import RoomKind, World, WorldObject
+from harness.world.procedural.config import WorldGenConfig, WorldGenError
+from harness.world.procedural.generate import generate_world
+from harness.world.splits import Split, world_seed
 from symbolic.cli_args import Parser, int_at_least, plain, positive_float
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import CAMERA_HEIGHT_M, GRID_STEP_M, TEACH_HFOV_DEG

@@ -30,8 +30,6 @@ HEATERS_INSIDE: frozenset[str] = frozenset({"Microwave", "Toaster"})
 STOVE = "StoveBurner"
 COOKWARE: frozenset[str] = frozenset({"Pan", "Pot", "Kettle"})
 """What sits on a StoveBurner and passes its heat to its contents."""
-COFFEE_MACHINE = "CoffeeMachine"
-COFFEE_CUPS: frozenset[str] = frozenset({"Mug"})
 WATER_SOURCE_CLASS = "WaterSources"
 """TEACh class of Faucet and ShowerHead: controllers that run water rather than switch an appliance."""
 
@@ -123,8 +121,8 @@ def _settle(state: BeliefState, obj: str, receptacle: str, ontology: Ontology) -
         _cook(state, obj, ontology)
     if receptacle in _watered_places(state, ontology):
         _wash(state, obj, ontology)
-    if receptacle == COFFEE_MACHINE and COFFEE_MACHINE in state.toggled_on and obj in COFFEE_CUPS:
-        state.filled.add(obj)
+    if ontology.appliance_vessels.get(receptacle) == obj and receptacle in state.toggled_on:
+        state.filled.add(obj)  # a coffee machine that is on fills the mug put in it
 
 
 def _navigate(state: BeliefState, obj: str, ontology: Ontology) -> None:

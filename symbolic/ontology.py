@@ -15,9 +15,12 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 Purpose = Literal["any", "place"]
+
+SurfacePurpose = Literal["put_down", "spare", "spread_out", "lamp_hosts"]
+"""What a list of open surfaces is for (each list's ``why`` in ontology.json says why it differs)."""
 
 AFFORDANCES: tuple[str, ...] = (
     "pickupable",
@@ -34,7 +37,7 @@ AFFORDANCES: tuple[str, ...] = (
     "coolable",
     "cleanable",
 )
-"""Boolean fields of ObjectTypeInfo, in the order ontology.json lists them."""
+"""Boolean fields of ObjectTypeInfo: the flags a type's ``affordances`` in ontology.json may name."""
 
 _ARTICLES = frozenset({"the", "a", "an", "some", "that", "this", "those", "these", "my", "your", "any"})
 _SLICE_PATTERNS = (
@@ -154,6 +157,15 @@ class Ontology:
         """Containers that stand open until seen otherwise (AI2-THOR's boxes)."""
         self.controls: dict[str, tuple[str, ...]] = {k: tuple(v) for k, v in data["controls"].items()}
         """Controller -> what it switches: Faucet -> SinkBasin (water), StoveKnob -> StoveBurner."""
+        self._surfaces: dict[str, tuple[str, ...]] = {
+            purpose: tuple(entry["types"]) for purpose, entry in data["surfaces"].items()
+        }
+        self.pour_basins: frozenset[str] = frozenset(data["pour_basins"])
+        """Where liquid may be poured out besides into a fillable object (a sink, a tub)."""
+        self.water_carriers: tuple[str, ...] = tuple(data["water_carriers"])
+        """Containers that carry water to a plant or a pour, preferred first."""
+        self.appliance_vessels: dict[str, str] = dict(data["appliance_vessels"])
+        """Appliance -> the one kind of vessel it works on (CoffeeMachine -> Mug)."""
         names = data["names"]
         self._any_names: dict[str, str] = {_key(k): v for k, v in names["any"].items()}
         self._place_names: dict[str, str] = {_key(k): v for k, v in names["place"].items()}
@@ -172,7 +184,14 @@ class Ontology:
             + list(self.enclosing)
             + list(self.initially_open)
             + [t for controller, targets in self.controls.items() for t in (controller, *targets)]
+            + [t for types in self._surfaces.values() for t in types]
+            + [*self.pour_basins, *self.water_carriers]
+            + [t for pair in self.appliance_vessels.items() for t in pair]
         )
+        if set(self._surfaces) != set(get_args(SurfacePurpose)):
+            raise ValueError(
+                f"ontology.json 'surfaces' has {sorted(self._surfaces)}; expected {get_args(SurfacePurpose)}"
+            )
         for t in named:
             if t not in self._info:
                 raise ValueError(f"ontology.json names {t!r}, which is not in its 'types'")
@@ -185,6 +204,12 @@ class Ontology:
             for obj in objects:
                 if not self._info[obj].pickupable:
                     raise ValueError(f"{receptacle!r} accepts {obj!r}, which is not pickupable")
+
+    def surfaces(self, purpose: SurfacePurpose) -> tuple[str, ...]:
+        """The open surfaces used for ``purpose``, in the data's order (ontology.json says why each list
+        differs): ``put_down`` frees the hand, ``spare`` takes things aside for a moment, ``spread_out`` are
+        too long to reach at once, ``lamp_hosts`` may hold a desk lamp."""
+        return self._surfaces[purpose]
 
     def get(self, object_type: str) -> ObjectTypeInfo:
         """Facts of an exact canonical type name; UnknownObjectType (with suggestions) otherwise."""

@@ -13,11 +13,12 @@ default radius of ``interactive`` and ``ignore``; callers that want the seed's s
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Protocol
 
 from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
+from symbolic.registry import Registry
 from symbolic.subgoals import INTERACTIONS, Subgoal, SubgoalAction
 from symbolic.thor import INTERACTION_DISTANCE_M
 
@@ -29,29 +30,6 @@ SEED_NEAR_DISTANCE_M = 0.5
 
 DEFAULT_IGNORE_ATTEMPTS = 4
 """Look-arounds near a mapped object before believing it a false detection (seed: "several times")."""
-
-SPREAD_OUT_RECEPTACLES: frozenset[str] = frozenset(
-    {
-        "CounterTop",
-        "DiningTable",
-        "SideTable",
-        "CoffeeTable",
-        "Desk",
-        "Dresser",
-        "Shelf",
-        "ShelvingUnit",
-        "TVStand",
-        "Sofa",
-        "ArmChair",
-        "Bed",
-        "Ottoman",
-        "Cart",
-    }
-)
-"""Furniture too long to reach all of at once: being at a CounterTop is not being at the apple on it."""
-
-POUR_BASINS: frozenset[str] = frozenset({"Sink", "SinkBasin", "Bathtub", "BathtubBasin"})
-"""Where liquid may be poured out besides into a fillable object."""
 
 
 # ---- task level -------------------------------------------------------------------------------------
@@ -116,7 +94,8 @@ def is_near(belief: BeliefState, ontology: Ontology, x: str) -> bool:
         return False
     if ontology.same_place(at, x) or another_instance_here(belief, ontology, x):
         return True
-    return (belief.inside.get(x) == at and at not in SPREAD_OUT_RECEPTACLES) or belief.inside.get(at) == x
+    in_reach_on = belief.inside.get(x) == at and at not in ontology.surfaces("spread_out")
+    return in_reach_on or belief.inside.get(at) == x
 
 
 def another_instance_here(belief: BeliefState, ontology: Ontology, x: str) -> bool:
@@ -149,7 +128,7 @@ def enclosing_closed(belief: BeliefState, ontology: Ontology, x: str) -> str | N
 def can_pour(belief: BeliefState, ontology: Ontology, x: str) -> bool:
     """Pour needs a held container believed filled, and a target that takes liquid."""
     held = belief.held
-    target_ok = ontology.get(x).fillable or x in POUR_BASINS
+    target_ok = ontology.get(x).fillable or x in ontology.pour_basins
     return held is not None and held != x and held in belief.filled and target_ok
 
 
@@ -169,7 +148,7 @@ def affordance_failure(ontology: Ontology, subgoal: Subgoal) -> str | None:
         return f"{x} cannot be toggled"
     if action is SubgoalAction.SLICE and not info.sliceable:
         return f"{x} cannot be sliced"
-    if action is SubgoalAction.POUR and not (info.fillable or x in POUR_BASINS):
+    if action is SubgoalAction.POUR and not (info.fillable or x in ontology.pour_basins):
         return f"{x} cannot take liquid"
     return None
 
@@ -300,36 +279,41 @@ def ignore(
     return not observe(view, x) and near(view, x, radius) and view.explore_attempts(x) >= attempts_limit
 
 
-TASK_PREDICATES: Mapping[str, Callable[..., bool]] = {
-    "Movable": movable,
-    "Sliceable": sliceable,
-    "Openable": openable,
-    "Toggleable": toggleable,
-    "IsReceptacle": is_receptacle,
-    "IsGrasped": is_grasped,
-    "Pick": can_pick,
-    "Place": can_place,
-    "Slice": can_slice,
-}
+Predicate = Callable[..., bool]
+
+TASK_PREDICATES: Registry[Predicate] = Registry(
+    "task predicate",
+    {
+        "Movable": movable,
+        "Sliceable": sliceable,
+        "Openable": openable,
+        "Toggleable": toggleable,
+        "IsReceptacle": is_receptacle,
+        "IsGrasped": is_grasped,
+        "Pick": can_pick,
+        "Place": can_place,
+        "Slice": can_slice,
+    },
+)
 """Table 5, task common sense, by the seed's names."""
 
-ACTION_PREDICATES: Mapping[str, Callable[..., bool]] = {
-    "IsEmpty": is_empty,
-    "Observe": observe,
-    "Success": success,
-    "Near": near,
-    "Move": move,
-    "Collision": collision,
-    "Target": target,
-    "Interactive": interactive,
-    "Ignore": ignore,
-}
+ACTION_PREDICATES: Registry[Predicate] = Registry(
+    "action predicate",
+    {
+        "IsEmpty": is_empty,
+        "Observe": observe,
+        "Success": success,
+        "Near": near,
+        "Move": move,
+        "Collision": collision,
+        "Target": target,
+        "Interactive": interactive,
+        "Ignore": ignore,
+    },
+)
 """Table 5, action common sense, by the seed's names."""
 
-
-def get_predicate(name: str) -> Callable[..., bool]:
-    """A Table 5 predicate by its name in the seed; KeyError listing the known names otherwise."""
-    table = {**TASK_PREDICATES, **ACTION_PREDICATES}
-    if name not in table:
-        raise KeyError(f"unknown predicate {name!r}; known: {', '.join(sorted(table))}")
-    return table[name]
+PREDICATES: Registry[Predicate] = Registry(
+    "predicate", dict(TASK_PREDICATES.items() + ACTION_PREDICATES.items())
+)
+"""All of Table 5 by the seed's names."""

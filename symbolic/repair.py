@@ -19,45 +19,24 @@ repaired too. Passes repeat until one changes nothing, which makes ``repair_plan
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
 from symbolic.predicates import (
-    POUR_BASINS,
     affordance_failure,
     can_pour,
     can_slice,
     enclosing_closed,
     is_near,
 )
+from symbolic.registry import Registry
 from symbolic.subgoals import INTERACTIONS, Subgoal, SubgoalAction
-
-PUT_DOWN_SURFACES: tuple[str, ...] = (
-    "CounterTop",
-    "DiningTable",
-    "SideTable",
-    "CoffeeTable",
-    "Desk",
-    "Dresser",
-    "Shelf",
-    "TVStand",
-    "Sofa",
-    "ArmChair",
-    "Bed",
-    "Ottoman",
-)
-"""Where a held object is put down to free the hand: CounterTop first (the seed), then other open surfaces."""
 
 FILL_BASIN = "SinkBasin"
 WATER_TAP = "Faucet"
-POUR_CONTAINERS: tuple[str, ...] = ("Cup", "Mug", "Bowl", "Pot")
-"""Containers fetched to carry water when a Pour has none (TEACh Water Plant uses any of them)."""
-
-APPLIANCE_VESSELS: Mapping[str, str] = {"CoffeeMachine": "Mug"}
-"""Appliances a plan may put "nothing" into: a language model that writes "Place CoffeeMachine" without
-fetching a mug still means coffee in a mug (TEACh's Coffee task)."""
 
 MAX_FIXES_PER_STEP = 32
 MAX_PASSES = 8
@@ -70,10 +49,12 @@ A = SubgoalAction
 
 @dataclass(frozen=True)
 class RepairEvent:
-    """One change to the plan: which rule, where (index in the plan being repaired), why, and what changed."""
+    """One change to the plan, as the session's ``repair_log`` shows it."""
 
     rule: str
+    """The rule's name in ``REPAIR_RULES``."""
     index: int
+    """Where in the plan being repaired the change was made."""
     reason: str
     removed: tuple[Subgoal, ...]
     inserted: tuple[Subgoal, ...]
@@ -81,6 +62,8 @@ class RepairEvent:
 
 @dataclass(frozen=True)
 class RepairResult:
+    """The repaired plan and every change made to reach it, in order."""
+
     plan: list[Subgoal]
     log: list[RepairEvent]
 
@@ -127,7 +110,7 @@ def put_down_spot(held: str, ctx: RuleContext) -> str | None:
     surface the plan or belief mentions, else the first accepting surface, else any accepting receptacle."""
     onto = ctx.ontology
     accepting = set(onto.receptacles_for(held))
-    surfaces = [s for s in PUT_DOWN_SURFACES if s in accepting]
+    surfaces = [s for s in onto.surfaces("put_down") if s in accepting]
     if "CounterTop" in surfaces:
         return "CounterTop"
     mentioned = {g.obj for g in ctx.plan} | set(ctx.belief.inside.values())
@@ -200,11 +183,14 @@ def slice_before_pieces(ctx: RuleContext) -> Fix | None:
 
 def place_needs_held(ctx: RuleContext) -> Fix | None:
     """Remove Place when nothing is held (seed: "remove Place(agent, x) if there is nothing in the hand"),
-    except into an appliance that only works on one kind of vessel: that vessel is fetched first."""
+    except into an appliance that only works on one kind of vessel: that vessel is fetched first.
+
+    A language model that writes "Place CoffeeMachine" without fetching a mug still means coffee in a mug
+    (TEACh's Coffee task)."""
     current = ctx.current
     if current is None or current.action is not A.PLACE or ctx.belief.held is not None:
         return None
-    vessel = APPLIANCE_VESSELS.get(current.obj)
+    vessel = ctx.ontology.appliance_vessels.get(current.obj)
     if vessel is not None:
         return Fix(f"{current.obj} works on a {vessel}: fetch one", inserted=(Subgoal(A.PICKUP, vessel),))
     return Fix(f"nothing is held to put on {current.obj}", remove_current=True)
@@ -286,7 +272,7 @@ def pour_needs_filled_container(ctx: RuleContext) -> Fix | None:
         return Fix(f"cannot pour {held} into itself", remove_current=True)
     if held is not None and held in belief.filled:
         return None
-    if current.obj in POUR_BASINS:
+    if current.obj in onto.pour_basins:
         return Fix(f"nothing to pour into {current.obj} (holding {held})", remove_current=True)
     if held is not None and _fillable_at_sink(held, onto):
         return Fix(f"{held} is believed empty; fill it at the sink first", inserted=_fill(held, belief))
@@ -312,7 +298,7 @@ def _fill(container: str, belief: BeliefState) -> tuple[Subgoal, ...]:
 def _pick_container(ctx: RuleContext) -> str | None:
     target = ctx.current.obj if ctx.current else None
     mentioned = [g.obj for g in ctx.plan] + list(ctx.belief.inside)
-    candidates = [c for c in [*mentioned, *POUR_CONTAINERS] if c != target]
+    candidates = [c for c in [*mentioned, *ctx.ontology.water_carriers] if c != target]
     return next((c for c in candidates if _fillable_at_sink(c, ctx.ontology)), None)
 
 
@@ -345,29 +331,87 @@ def dedupe_navigate(ctx: RuleContext) -> Fix | None:
     return None
 
 
-REPAIR_RULES: Mapping[str, RepairRule] = {
-    "close-after-place": close_after_place,
-    "close-after-pickup": close_after_pickup,
-    "impossible-action": impossible_action,
-    "slice-before-pieces": slice_before_pieces,
-    "place-needs-held": place_needs_held,
-    "place-needs-compatible-receptacle": place_needs_compatible_receptacle,
-    "pickup-needs-free-hands": pickup_needs_free_hands,
-    "pickup-from-closed": pickup_from_closed,
-    "place-needs-open": place_needs_open,
-    "slice-needs-knife": slice_needs_knife,
-    "pour-needs-filled-container": pour_needs_filled_container,
-    "navigate-before-interaction": navigate_before_interaction,
-    "dedupe-navigate": dedupe_navigate,
-}
-"""Every rule by the name the log uses, in the order they are tried at each position."""
+CLOSE_AFTER_PLACE = "close-after-place"
+CLOSE_AFTER_PICKUP = "close-after-pickup"
+IMPOSSIBLE_ACTION = "impossible-action"
+SLICE_BEFORE_PIECES = "slice-before-pieces"
+PLACE_NEEDS_HELD = "place-needs-held"
+PLACE_NEEDS_COMPATIBLE_RECEPTACLE = "place-needs-compatible-receptacle"
+PICKUP_NEEDS_FREE_HANDS = "pickup-needs-free-hands"
+PICKUP_FROM_CLOSED = "pickup-from-closed"
+PLACE_NEEDS_OPEN = "place-needs-open"
+SLICE_NEEDS_KNIFE = "slice-needs-knife"
+POUR_NEEDS_FILLED_CONTAINER = "pour-needs-filled-container"
+NAVIGATE_BEFORE_INTERACTION = "navigate-before-interaction"
+DEDUPE_NAVIGATE = "dedupe-navigate"
+ASSUME_FILLED = "assume-filled"
+REQUEST_COUNT = "request-count"
+REQUEST_CONJUNCTION = "request-conjunction"
+STAND_IN = "stand-in"
+KIN_STAND_IN = "kin-stand-in"
+MAKE_ROOM = "make-room"
+SUBGOAL_FAILED = "subgoal-failed"
+RETRY_GIVEN_UP = "retry-given-up"
+
+AppliedBy = Literal["repair_plan", "oracle planner", "model planner", "executor"]
+"""Which part applies a rule: ``repair_plan`` runs the checks itself; the others log events under the
+rule's name when they change the plan (before repair, or while the agent acts)."""
 
 
-def get_rule(name: str) -> RepairRule:
-    """A repair rule by name; KeyError listing the known names otherwise."""
-    if name not in REPAIR_RULES:
-        raise KeyError(f"unknown repair rule {name!r}; known: {', '.join(REPAIR_RULES)}")
-    return REPAIR_RULES[name]
+@dataclass(frozen=True)
+class Rule:
+    """A rule the repair log can name: what it does and who applies it (``check`` for ``repair_plan``'s)."""
+
+    description: str
+    applied_by: AppliedBy = "repair_plan"
+    check: RepairRule | None = None
+
+
+def _checked_by(check: RepairRule) -> Rule:
+    """A rule of ``repair_plan``, described by the summary of its check's docstring (written once)."""
+    summary = (check.__doc__ or "").split("\n\n")[0]
+    return Rule(" ".join(summary.split()), check=check)
+
+
+REPAIR_RULES: Registry[Rule] = Registry(
+    "repair rule",
+    {
+        CLOSE_AFTER_PLACE: _checked_by(close_after_place),
+        CLOSE_AFTER_PICKUP: _checked_by(close_after_pickup),
+        IMPOSSIBLE_ACTION: _checked_by(impossible_action),
+        SLICE_BEFORE_PIECES: _checked_by(slice_before_pieces),
+        PLACE_NEEDS_HELD: _checked_by(place_needs_held),
+        PLACE_NEEDS_COMPATIBLE_RECEPTACLE: _checked_by(place_needs_compatible_receptacle),
+        PICKUP_NEEDS_FREE_HANDS: _checked_by(pickup_needs_free_hands),
+        PICKUP_FROM_CLOSED: _checked_by(pickup_from_closed),
+        PLACE_NEEDS_OPEN: _checked_by(place_needs_open),
+        SLICE_NEEDS_KNIFE: _checked_by(slice_needs_knife),
+        POUR_NEEDS_FILLED_CONTAINER: _checked_by(pour_needs_filled_container),
+        NAVIGATE_BEFORE_INTERACTION: _checked_by(navigate_before_interaction),
+        DEDUPE_NAVIGATE: _checked_by(dedupe_navigate),
+        ASSUME_FILLED: Rule(
+            "A given plan that pours a container out says it holds liquid.", "oracle planner"
+        ),
+        REQUEST_COUNT: Rule(
+            "Repeat an object's cycle as many times as the commander asked.", "model planner"
+        ),
+        REQUEST_CONJUNCTION: Rule(
+            "Copy a cycle for an object joined by 'and' to a planned one.", "model planner"
+        ),
+        STAND_IN: Rule("Fetch the slicing tool the map knows when the planned kind is unknown.", "executor"),
+        KIN_STAND_IN: Rule("Swap a type searched for in vain for a known type of the same word.", "executor"),
+        MAKE_ROOM: Rule("Take an obstruction out of a receptacle where Place keeps failing.", "executor"),
+        SUBGOAL_FAILED: Rule("Give up a subgoal the agent could not do; repair the rest.", "executor"),
+        RETRY_GIVEN_UP: Rule("Try the given-up subgoals once more when the plan runs out.", "executor"),
+    },
+)
+"""Every rule name the repair log uses: ``repair_plan``'s checks in the order they are tried at each
+position, then the rules other parts apply."""
+
+PLAN_CHECKS: tuple[tuple[str, RepairRule], ...] = tuple(
+    (name, rule.check) for name, rule in REPAIR_RULES.items() if rule.check is not None
+)
+"""``repair_plan``'s checks by name, in the order they are tried."""
 
 
 def _repair_pass(
@@ -409,8 +453,8 @@ def _repair_pass(
 
 
 def _first_fix(ctx: RuleContext) -> tuple[str, Fix] | None:
-    for name, rule in REPAIR_RULES.items():
-        fix = rule(ctx)
+    for name, check in PLAN_CHECKS:
+        fix = check(ctx)
         if fix is not None:
             return name, fix
     return None

@@ -24,13 +24,11 @@ from dataclasses import dataclass
 
 from symbolic.ontology import Ontology
 from symbolic.predicates import affordance_failure
-from symbolic.repair import RepairEvent
+from symbolic.repair import REQUEST_CONJUNCTION, REQUEST_COUNT, RepairEvent
 from symbolic.request_words import Group, Mention, Request
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 A = SubgoalAction
-COUNT_RULE = "request-count"
-CONJUNCTION_RULE = "request-conjunction"
 
 
 @dataclass(frozen=True)
@@ -222,7 +220,7 @@ def _cover_count(state: _Plan, mention: Mention, ontology: Ontology) -> None:
     state.insert(
         last.end,
         added,
-        COUNT_RULE,
+        REQUEST_COUNT,
         f"the commander asked for {asked} ({mention.words!r}) and the plan handles {len(found)} {obj}: "
         f"its {obj} cycle repeated {copies} more time{'s' if copies > 1 else ''}",
     )
@@ -250,7 +248,7 @@ def _cover_group(state: _Plan, group: Group, request: Request, ontology: Ontolog
         state.insert(
             at,
             copy * copies,
-            CONJUNCTION_RULE,
+            REQUEST_CONJUNCTION,
             f"the commander asked for {group.words!r} and the plan handles {source_mention.object_type} "
             f"but no {mention.object_type}: the {source_cycles[-1].obj} cycle copied for {target}"
             + (f" {copies} times" if copies > 1 else ""),

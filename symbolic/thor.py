@@ -81,46 +81,31 @@ MOTION_ACTIONS: tuple[str, ...] = TEACH_DRIVER_ACTIONS[1:9]
 OBJECT_ACTIONS: tuple[str, ...] = TEACH_DRIVER_ACTIONS[9:]
 """Actions that need a click point on an object."""
 
-TEACH_ACTION_IDS: dict[str, int] = {
-    "Stop": 0,
-    "Forward": 2,
-    "Backward": 3,
-    "Turn Left": 4,
-    "Turn Right": 5,
-    "Look Up": 6,
-    "Look Down": 7,
-    "Pan Left": 8,
-    "Pan Right": 9,
-    "Pickup": 200,
-    "Place": 201,
-    "Open": 202,
-    "Close": 203,
-    "ToggleOn": 204,
-    "ToggleOff": 205,
-    "Slice": 206,
-    "Pour": 211,
-    "Text": 100,
-}
+_TEACH_ACTION_NUMBERS: tuple[tuple[str, int, int], ...] = (
+    ("Stop", 0, 0),
+    ("Forward", 2, 2),
+    ("Backward", 3, 3),
+    ("Turn Left", 4, 4),
+    ("Turn Right", 5, 5),
+    ("Look Up", 6, 6),
+    ("Look Down", 7, 7),
+    ("Pan Left", 8, 8),
+    ("Pan Right", 9, 9),
+    ("Pickup", 200, 15),
+    ("Place", 201, 16),
+    ("Open", 202, 17),
+    ("Close", 203, 18),
+    ("ToggleOn", 204, 19),
+    ("ToggleOff", 205, 20),
+    ("Slice", 206, 21),
+    ("Pour", 211, 26),
+    ("Text", 100, 33),
+)
+"""(driver action, TEACh ``action_id``, TEACh ``action_idx``): TEACh numbers its actions twice, and one row
+per action keeps the two numberings from drifting apart."""
+
+TEACH_ACTION_IDS: dict[str, int] = {name: action_id for name, action_id, _ in _TEACH_ACTION_NUMBERS}
 """TEACh's ``action_id`` of each driver action (default_definitions.json)."""
 
-TEACH_ACTION_IDX: dict[str, int] = {
-    "Stop": 0,
-    "Forward": 2,
-    "Backward": 3,
-    "Turn Left": 4,
-    "Turn Right": 5,
-    "Look Up": 6,
-    "Look Down": 7,
-    "Pan Left": 8,
-    "Pan Right": 9,
-    "Pickup": 15,
-    "Place": 16,
-    "Open": 17,
-    "Close": 18,
-    "ToggleOn": 19,
-    "ToggleOff": 20,
-    "Slice": 21,
-    "Pour": 26,
-    "Text": 33,
-}
+TEACH_ACTION_IDX: dict[str, int] = {name: action_idx for name, _, action_idx in _TEACH_ACTION_NUMBERS}
 """TEACh's ``action_idx`` (0-35) of each driver action (action_idx_to_action_name.json)."""

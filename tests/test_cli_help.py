@@ -10,13 +10,13 @@ from pathlib import Path
 
 import pytest
 
-from harness.service import free_port
+from harness.drive.service import free_port
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("torch", "transformers", "onnxruntime")
 BENCH_DIR = REPO_ROOT / "bench"
 # Modules under bench/ that are no command line, with the reason (`python -m bench` still lists them).
-NOT_COMMANDS = {"provenance": "helpers the other scripts import; it has no main"}
+NOT_COMMANDS = {name: "helpers the other scripts import; it has no main" for name in ("cli", "stamp")}
 
 
 def bench_commands() -> list[str]:

@@ -1,20 +1,26 @@
 """The action-level executor (JARVIS Algorithm 3) and what it needs around it.
 
-``executor`` decides each step's action from the subgoal at the pointer, on top of mixins by job:
-``choice`` (which instance), ``approach`` (getting there), ``search`` (finding what the map lacks),
-``motion`` (moving without collisions), over the shared ``step`` context and ``config``. ``mapview``
-answers Table 5's action predicates over the map and the current frame; ``clicks`` picks the click point
-on an instance mask; ``success`` judges whether the previous action worked; ``looks`` tells dirty from
-clean; ``replay`` turns an EDH history into poses; ``state`` is what carries over between steps.
+``executor`` holds the step: ``Executor.judge`` gives the previous action's verdict before the frame
+enters the map, ``Executor.decide`` pursues the subgoal at the pointer. Each job of a step is a collaborator
+handed the step's ``context``: ``judge`` (what the previous action did), ``progress`` (the attempt, carrying
+subgoals out, giving them up), ``choice`` (which instance), ``approach`` (getting there), ``search``,
+``visit``, ``candidates`` and ``explore`` (finding what the map lacks), ``fronts`` (container fronts and
+doors), ``detections`` (Ignore), ``motion`` (moving without collisions), ``switches`` (rows of stove
+knobs), ``room`` (making room in a full receptacle), ``standin`` (another type for the one planned),
+``hints`` (a commander's). ``config`` holds every budget and distance; ``state`` is what carries over
+between steps, one part per concern. ``mapview`` answers Table 5's action predicates over the map and the
+current frame; ``clicks`` picks the click point on an instance mask; ``success`` judges whether the
+previous action worked; ``looks`` tells dirty from clean; ``sightings`` remembers container instances;
+``replay`` turns an EDH history into poses.
 """
 
 from agent.executor.clicks import Click, ClickConfig, VisibleInstance, choose_click, interior_pixel
 from agent.executor.config import ExecutorConfig, SearchConfig
-from agent.executor.executor import Decision, Executor
+from agent.executor.context import StepInputs
+from agent.executor.executor import Decision, Executor, ReplanReason
 from agent.executor.mapview import IgnoredSpot, MapCluster, SessionMapView
 from agent.executor.replay import HistoryStep, history_poses, holding_before
-from agent.executor.state import ExecutorState, Hint
-from agent.executor.step import StepInputs
+from agent.executor.state import ExecutorState, Hint, Verdict
 from agent.executor.success import (
     FrameDigest,
     SuccessConfig,
@@ -36,11 +42,13 @@ __all__ = [
     "HistoryStep",
     "IgnoredSpot",
     "MapCluster",
+    "ReplanReason",
     "SearchConfig",
     "SessionMapView",
     "StepInputs",
     "SuccessConfig",
     "SuccessEstimate",
+    "Verdict",
     "VisibleInstance",
     "choose_click",
     "digest",

@@ -75,6 +75,20 @@ class Click:
     point: tuple[float, float, float]  # world point of the clicked surface
 
 
+@dataclass(frozen=True, eq=False)
+class ClickFrame:
+    """One frame as clicks are chosen in it: per pixel its instance, reach measure (metres from the body's
+    axis, ``pixel_axis_distances``), whether it may be clicked (``usable_pixels``) and depth, and where the
+    camera stood."""
+
+    instances: np.ndarray  # int32 [H, W] instance ids (0 = none)
+    distances: np.ndarray  # float32 [H, W] the reach measure, metres
+    usable: np.ndarray  # bool [H, W]
+    depth: np.ndarray  # float32 [H, W] z-depth, metres
+    camera: Camera
+    pose: Pose
+
+
 def pixel_points(
     rows: np.ndarray, cols: np.ndarray, depth: np.ndarray, camera: Camera, pose: Pose
 ) -> np.ndarray:
@@ -147,23 +161,14 @@ def held_type_in_view(
     return top if shown[top] >= 0.6 * total else None
 
 
-def visible_instances(
-    mask: np.ndarray,
-    instances: np.ndarray,
-    distances: np.ndarray,
-    usable: np.ndarray,
-    depth: np.ndarray,
-    camera: Camera,
-    pose: Pose,
-    config: ClickConfig,
-) -> list[VisibleInstance]:
-    """The instances covering ``mask`` (the wanted type's pixels), nearest first.
+def visible_instances(mask: np.ndarray, frame: ClickFrame, config: ClickConfig) -> list[VisibleInstance]:
+    """The instances of ``frame`` covering ``mask`` (bool [H, W]: the wanted type's pixels), nearest first.
 
-    ``distances`` (the reach measure, ``pixel_axis_distances``) and ``usable`` (``usable_pixels``) are per
-    pixel. Pixels of the type without an instance (id 0: the specks a learned segmenter's instance split
-    drops) are not an instance: a click on "instance 0" would land on any unlabelled pixel of the frame.
+    Pixels of the type without an instance (id 0: the specks a learned segmenter's instance split drops)
+    are not an instance: a click on "instance 0" would land on any unlabelled pixel of the frame.
     """
-    wanted = mask & usable & (instances > 0)
+    instances, distances = frame.instances, frame.distances
+    wanted = mask & frame.usable & (instances > 0)
     if not wanted.any():
         return []
     rows, cols = np.nonzero(wanted)  # [N] each
@@ -175,7 +180,7 @@ def visible_instances(
     reachable = np.bincount(inverse, weights=near, minlength=len(found_ids)).astype(np.int64)  # [I]
     pick = near | (reachable < config.min_pixels)[inverse]  # [N]: the reachable pixels, else all of them
     picked = np.bincount(inverse, weights=pick, minlength=len(found_ids))  # [I]
-    points = pixel_points(rows, cols, depth, camera, pose)  # [N, 3]
+    points = pixel_points(rows, cols, frame.depth, frame.camera, frame.pose)  # [N, 3]
     sums = [np.bincount(inverse, weights=points[:, k] * pick, minlength=len(found_ids)) for k in range(3)]
     centres = np.stack(sums, axis=1) / picked[:, None]  # [I, 3]
     nearest = np.full(len(found_ids), np.inf, dtype=dist.dtype)
@@ -213,26 +218,23 @@ def interior_pixel(mask: np.ndarray, config: ClickConfig, scale: float = 1.0) ->
 
 def choose_click(
     instance: VisibleInstance,
-    instances: np.ndarray,
-    distances: np.ndarray,
-    usable: np.ndarray,
-    depth: np.ndarray,
-    camera: Camera,
-    pose: Pose,
+    frame: ClickFrame,
     purpose: ClickPurpose,
     config: ClickConfig,
     avoid: tuple[tuple[int, int], ...] = (),
     exact_depth: bool = True,
 ) -> Click | None:
-    """The click on ``instance``: an interior pixel of its reachable part (its top surface for ``surface``).
+    """The click on ``instance`` in ``frame``: an interior pixel of its reachable part (its top surface for
+    ``surface``).
 
     ``avoid`` holds pixels of earlier failed clicks on it; the mask loses a disc around each so a retry
     lands elsewhere. None when nothing reachable is left. Without ``exact_depth`` (a network's estimate)
     the top is found below ``uncertain_top_quantile`` of the heights rather than below the highest.
     """
-    H, W = instances.shape
+    depth, camera, pose = frame.depth, frame.camera, frame.pose
+    H, W = frame.instances.shape
     scale = max(H, W) / 300.0
-    region = (instances == instance.instance_id) & usable & (distances <= config.reach_m)
+    region = (frame.instances == instance.instance_id) & frame.usable & (frame.distances <= config.reach_m)
     for row, col in avoid:
         cv2.circle(region.view(np.uint8), (col, row), max(2, round(config.interior_cap_px * scale)), 0, -1)
     if int(region.sum()) < config.min_pixels:

@@ -10,80 +10,80 @@ changes nothing, it goes its own way (map, search, its own click), as without hi
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from agent.executor.clicks import Click, pixel_points
-from agent.executor.state import Attempt, Hint
-from agent.executor.step import Act, Done, Outcome, StepContext
+from agent.executor.context import Act, Done, Outcome, StepContext
+from agent.executor.state import Attempt, Hint, Memory
 from agent.navigation.base import NavGoal
-from symbolic.subgoals import Subgoal, SubgoalAction
-
-A = SubgoalAction
-
-HINT_LOOKAHEAD = 3
-"""Hints that may be passed over to reach the one for this subgoal (repair may have dropped a subgoal)."""
-AT_POSE_M = 0.1
-"""Metres: standing this close to the hinted cell centre is standing on it."""
-HINT_PATIENCE = 4
-"""Steps the hinted cell may be out of the map's reach (a turn each, to see more) before it is given up."""
+from symbolic.subgoals import Subgoal
 
 
-class HintFollowing(StepContext):
-    """The commander's stand and click hints (module docstring)."""
+@dataclass(eq=False)
+class HintFollowing:
+    """The commander's stand and click hints (module docstring); owns the queue of hints and
+    ``Memory.hint_pose``."""
 
-    def _hint_for(self, subgoal: Subgoal) -> Hint | None:
+    ctx: StepContext
+    hints: list[Hint]
+    memory: Memory
+
+    def hint_for(self, subgoal: Subgoal) -> Hint | None:
         """The hint for this subgoal, taken off the queue with any passed over before it."""
-        hints = self.state.hints
-        for index, hint in enumerate(hints[:HINT_LOOKAHEAD]):
+        hints = self.hints
+        for index, hint in enumerate(hints[: self.ctx.cfg.hint_lookahead]):
             if hint.subgoal == subgoal:
                 del hints[: index + 1]
                 return hint
         return None
 
-    def _follow_stand(self, attempt: Attempt) -> Outcome | None:
+    def follow_stand(self, attempt: Attempt) -> Outcome | None:
         """Walk to the hinted cell, turn and pitch as told; Done there. None: no such hint, or unreachable."""
+        ctx = self.ctx
         hint = attempt.hint
         if hint is None or hint.stand is None or attempt.hint_failed:
             return None
-        stand = hint.stand
-        if math.hypot(self.pose.x - stand.x, self.pose.z - stand.z) <= AT_POSE_M:
-            off = (stand.yaw - self.pose.yaw + 180.0) % 360.0 - 180.0
+        stand, pose, at_pose_m = hint.stand, ctx.pose, ctx.cfg.at_pose_m
+        if math.hypot(pose.x - stand.x, pose.z - stand.z) <= at_pose_m:
+            off = (stand.yaw - pose.yaw + 180.0) % 360.0 - 180.0
             if abs(off) > 45.0:
                 return Act("Turn Right" if off > 0 else "Turn Left", "Hint: turn as the commander said")
-            if hint.look is not None and abs(hint.look - self.pose.horizon) > 1e-3:
-                return Act(self._look_toward(hint.look), "Hint: look as the commander said")
-            self.state.memory.hint_pose = self.pose
+            if hint.look is not None and abs(hint.look - pose.horizon) > 1e-3:
+                return Act(ctx.look_toward(hint.look), "Hint: look as the commander said")
+            self.memory.hint_pose = pose
             return Done("at the pose the commander gave")
-        frame = self.view.map.frame
-        X, Z = self.view.map.shape
+        frame = ctx.view.map.frame
+        X, Z = ctx.view.map.shape
         xs = frame.origin_x + (np.arange(X) + 0.5) * frame.cell_m  # [X] cell centres
         zs = frame.origin_z + (np.arange(Z) + 0.5) * frame.cell_m  # [Z]
-        goal = (xs[:, None] - stand.x) ** 2 + (zs[None, :] - stand.z) ** 2 <= AT_POSE_M**2  # [X, Z]
-        nav = self.navigator.next_action(self.view.grids(), frame, self.pose, NavGoal(goal))
+        goal = (xs[:, None] - stand.x) ** 2 + (zs[None, :] - stand.z) ** 2 <= at_pose_m**2  # [X, Z]
+        nav = ctx.navigator.next_action(ctx.view.grids(), frame, pose, NavGoal(goal))
         if nav.action is not None:
             return Act(nav.action, f"Hint: go to ({stand.x:.2f}, {stand.z:.2f})", path=nav.path)
         attempt.hint_misses += 1
-        if attempt.hint_misses < HINT_PATIENCE:  # the map may not show the way yet: look around first
+        if attempt.hint_misses < ctx.cfg.hint_patience:  # the map may not show the way yet: look around first
             return Act("Turn Left", f"Hint: no way to ({stand.x:.2f}, {stand.z:.2f}) in the map yet; look")
         attempt.hint_failed = True
-        self.events.append(f"hinted stand ({stand.x:.2f}, {stand.z:.2f}) {nav.reason}; going my own way")
+        ctx.events.append(f"hinted stand ({stand.x:.2f}, {stand.z:.2f}) {nav.reason}; going my own way")
         return None
 
-    def _hinted_click(self, attempt: Attempt) -> Click | None:
+    def hinted_click(self, attempt: Attempt) -> Click | None:
         """The commander's click, while the agent stands where the commander said and it has not failed."""
+        ctx = self.ctx
         hint = attempt.hint
-        at = self.state.memory.hint_pose
+        at = self.memory.hint_pose
         if hint is None or hint.click is None or at is None or attempt.failures:
             return None
-        here = self.pose
-        moved = math.hypot(here.x - at.x, here.z - at.z) > AT_POSE_M or abs(here.yaw - at.yaw) > 1e-3
+        here = ctx.pose
+        moved = math.hypot(here.x - at.x, here.z - at.z) > ctx.cfg.at_pose_m or abs(here.yaw - at.yaw) > 1e-3
         if moved or abs(here.horizon - at.horizon) > 1e-3:
             return None
-        instances, depth = self.view.percept.instances, self.view.percept.depth
+        instances, depth = ctx.view.percept.instances, ctx.view.percept.depth
         H, W = instances.shape
         row, col = min(int(hint.click[1] * H), H - 1), min(int(hint.click[0] * W), W - 1)
-        point = pixel_points(np.array([row]), np.array([col]), depth, self.view.camera, here)[0]
+        point = pixel_points(np.array([row]), np.array([col]), depth, ctx.view.camera, here)[0]
         return Click(
             row=row,
             col=col,

@@ -2,8 +2,8 @@
 
 Type-level plans say "Pickup Mug", not which mug. A plan that washes the mug next wants a dirty one (TEACh's
 Clean All X); a plan that fills it with coffee without washing wants a clean one (Coffee, Plate Of Toast).
-Dirt on dishes is brown (AI2-THOR's dirty textures, and our renderer's stains, ``harness.appearance``), so
-a pixel counts as stained when (R − B) / (R + G + B) exceeds ``stain_chroma``: shading scales the three
+Dirt on dishes is brown (AI2-THOR's dirty textures, and our renderer's stains, ``harness.render.appearance``),
+so a pixel counts as stained when (R − B) / (R + G + B) exceeds ``stain_chroma``: shading scales the three
 channels alike and leaves that ratio alone. On 8 generated kitchens at 300x300, clean mugs, cups, bowls,
 plates, pots and pans show at most 2.3% stained pixels and dirty ones at least 6.8% (a dirty plate seen
 edge-on may show none), hence the two cut-offs and the "cannot tell" band between them.

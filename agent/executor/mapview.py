@@ -20,6 +20,7 @@ import numpy as np
 from agent.classes import UNOBSERVED_ID
 from agent.executor.clicks import (
     ClickConfig,
+    ClickFrame,
     VisibleInstance,
     pixel_distances,
     usable_pixels,
@@ -44,10 +45,10 @@ class IgnoredSpot:
     reason: str
     subgoal_index: int | None  # the subgoal it applies to; None for the whole episode
     until_seen: bool = False
-    """Ruled out for not being seen there (``Approach``'s Ignore after look-arounds), so lifted once an
-    instance of its type shows within reach inside it under true segmentation
-    (``StepContext._lift_ignored_in_sight``). A false detection ruled out after a failed action
-    (``_rule_out_click``) stays ruled out: it would show again."""
+    """Ruled out for not being seen there (Ignore after look-arounds, ``FalseDetections.not_seen_from_here``),
+    so lifted once an instance of its type shows within reach inside it under true segmentation
+    (``FalseDetections.lift_in_sight``). A false detection ruled out after a failed action
+    (``FalseDetections.rule_out``) stays ruled out: it would show again."""
 
     def covers(self, x: float, z: float) -> bool:
         return math.hypot(x - self.x, z - self.z) <= self.radius_m
@@ -188,6 +189,7 @@ class SessionMapView:
         if holding and held_type in semantic_map.classes.types:
             held = np.asarray(percept.class_ids == semantic_map.classes.id_of(held_type))
         self.usable = usable_pixels(self.distances, holding, click_config, held)  # [H, W]
+        self.click_frame = ClickFrame(percept.instances, self.reach, self.usable, percept.depth, camera, pose)
         self._visible: dict[str, list[VisibleInstance]] = {}
         self._in_frame: dict[str, list[VisibleInstance]] = {}
         self._clusters: dict[str, list[MapCluster]] = {}
@@ -215,14 +217,7 @@ class SessionMapView:
         """The type's instances in this frame, ignored spots or not (``visible`` leaves those out)."""
         if object_type not in self._in_frame:
             self._in_frame[object_type] = visible_instances(
-                self.class_mask(object_type),
-                self.percept.instances,
-                self.reach,
-                self.usable,
-                self.percept.depth,
-                self.camera,
-                self.pose,
-                self.click_config,
+                self.class_mask(object_type), self.click_frame, self.click_config
             )
         return self._in_frame[object_type]
 

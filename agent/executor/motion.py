@@ -11,13 +11,12 @@ simulator's own clearance allows gets the agent free.
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
 
-from agent.executor.state import Attempt
-from agent.executor.step import Act, StepContext
+from agent.executor.context import Act, StepContext
+from agent.executor.state import Attempt, MotionMemory, Pending
 from agent.geometry import Pose
-from agent.mapping import GridFrame
-from agent.navigation.base import Cell, NavDecision, NavGoal, NavGrids, Navigator
+from symbolic.thor import MOTION_ACTIONS
 
 OPPOSITE_TURN: dict[str, str] = {"Turn Left": "Turn Right", "Turn Right": "Turn Left"}
 
@@ -27,56 +26,89 @@ def turn_key(pose: Pose, action: str) -> tuple[float, float, float, str]:
     return (round(pose.x, 2), round(pose.z, 2), round(pose.yaw % 360.0), action)
 
 
-class GuardedNavigator:
-    """A navigator whose degenerate "no path" case is an answer, not an exception.
-
-    scikit-fmm refuses a field whose goal nodes touch no open node ("no zero level set"), which happens
-    when every goal node is boxed in (``agent.navigation.fmm`` lets it through); that is the
-    navigator's "unreachable", so it is answered as such.
-    """
-
-    def __init__(self, navigator: Navigator) -> None:
-        self.inner = navigator
-
-    def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
-        try:
-            return self.inner.next_action(grids, frame, pose, goal)
-        except ValueError as error:
-            if "zero level set" not in str(error):
-                raise
-            return NavDecision(action=None, reason="unreachable", distance_m=math.inf)
-
-    def record_collision(self, pose: Pose, action: str, frame: GridFrame) -> list[Cell]:
-        return self.inner.record_collision(pose, action, frame)
+def note_outcome(memory: MotionMemory, pending: Pending, success: bool | None, held: str | None) -> None:
+    """What the previous action's outcome teaches about moving: the failed motion not to repeat (Alg. 3
+    line 80), and a turn that failed with something in hand (too long to swing there)."""
+    if success is not False:
+        memory.last_failed_action = None
+        return
+    memory.last_failed_action = pending.action
+    if pending.action in OPPOSITE_TURN and held is not None:  # too long to turn with, here (AI2-THOR)
+        memory.blocked_turns.append(turn_key(pending.pose, pending.action))
+        if held not in memory.long_held:
+            memory.long_held.append(held)
 
 
-class MotionSafety(StepContext):
-    """Turns that would collide, blocked spots, and Algorithm 3's random feasible motion."""
+@dataclass(eq=False)
+class MotionSafety:
+    """Turns that would collide, blocked spots, and Algorithm 3's random feasible motion; owns
+    ``ExecutorState.motion``."""
+
+    ctx: StepContext
+    memory: MotionMemory
+
+    def guard(self, outcome: Act) -> tuple[str, str]:
+        """The action to take for ``outcome`` and why: a manoeuvre under way goes on, a turn the held object
+        would be swung into something by becomes a side step, a motion that just failed is not repeated."""
+        ctx, manoeuvre = self.ctx, self.memory.manoeuvre
+        action, reason = outcome.action, outcome.reason
+        last_success = ctx.inputs.last_success
+        if manoeuvre and (action not in MOTION_ACTIONS or last_success is False):
+            manoeuvre.clear()  # it can act now, or the manoeuvre failed
+        if manoeuvre and action in MOTION_ACTIONS:
+            action = manoeuvre.pop(0)
+            reason = f"Collision: making room to turn with what is held: {action}"
+        elif action in OPPOSITE_TURN and self._turn_blocked(action):
+            action = self._sidestep(action)
+            if action.startswith("Pan"):  # turn where there is room, then step back in facing the way wanted
+                manoeuvre.extend([outcome.action, "Forward"])
+            reason = f"Collision: {outcome.action} would swing what is held into something; {action} first"
+        elif action in MOTION_ACTIONS and last_success is False and action == self.memory.last_failed_action:
+            action = self._random_feasible_motion(exclude=action)
+            reason = (
+                f"Collision: {outcome.action} just failed; random feasible {action} instead (Alg. 3 l. 81)"
+            )
+        return action, reason
+
+    def unstick(self, attempt: Attempt) -> Act | None:
+        """The navigator finds no way out from here (an opened door, a dilated corner): a single move the
+        map leaves room for under the simulator's own clearance, at most ``max_unstick`` per subgoal."""
+        ctx = self.ctx
+        if attempt.unsticks >= ctx.cfg.max_unstick:
+            return None
+        for move in ("Backward", "Pan Left", "Pan Right", "Forward"):
+            after = ctx.pose.apply_motion(move, True)
+            if self._clear_at(after.x, after.z, ctx.cfg.unstick_clearance_m):
+                attempt.unsticks += 1
+                return Act(move, f"Collision: no planned way out of here; {move} to get free")
+        return None
 
     def _turn_blocked(self, turn: str) -> bool:
         """Whether a turn will fail: it failed here before, or the hand holds a type that proved too long to
         turn with and the map shows something where the agent would then face (AI2-THOR sweeps the held
         object through the turn)."""
-        if turn_key(self.pose, turn) in self.state.blocked_turns:
+        ctx = self.ctx
+        if turn_key(ctx.pose, turn) in self.memory.blocked_turns:
             return True
-        if self.state.belief.held not in self.state.long_held:
+        if ctx.belief.held not in self.memory.long_held:
             return False
-        return not self._clear_ahead(self.pose.apply_motion(turn, True))
+        return not self._clear_ahead(ctx.pose.apply_motion(turn, True))
 
     def _clear_ahead(self, pose: Pose) -> bool:
         """Whether the map shows nothing within ``swing_clearance_m`` of the spot one move ahead."""
         ahead = pose.apply_motion("Forward", True)
-        return self._clear_at(ahead.x, ahead.z, self.cfg.swing_clearance_m)
+        return self._clear_at(ahead.x, ahead.z, self.ctx.cfg.swing_clearance_m)
 
     def _clear_at(self, x: float, z: float, radius_m: float) -> bool:
         """Whether the map shows no obstacle or collision within ``radius_m`` (a square) of a point."""
-        frame = self.view.map.frame
+        semantic_map = self.ctx.view.map
+        frame = semantic_map.frame
         i0, j0 = frame.world_to_cell(x - radius_m, z - radius_m)
         i1, j1 = frame.world_to_cell(x + radius_m, z + radius_m)
         if not (frame.contains(i0, j0) and frame.contains(i1, j1)):
             return False
         window = (slice(i0, i1 + 1), slice(j0, j1 + 1))
-        blocked = self.view.map.obstacles()[window] | self.view.map.collisions()[window]
+        blocked = semantic_map.obstacles()[window] | semantic_map.collisions()[window]
         return not bool(blocked.any())
 
     def _sidestep(self, turn: str) -> str:
@@ -90,26 +122,15 @@ class MotionSafety(StepContext):
 
     def _standable_after(self, move: str) -> bool:
         """Whether the map says the body can stand where one move would take it."""
-        after = self.pose.apply_motion(move, True)
-        frame = self.view.map.frame
+        ctx = self.ctx
+        after = ctx.pose.apply_motion(move, True)
+        frame = ctx.view.map.frame
         cell = frame.world_to_cell(after.x, after.z)
-        return frame.contains(*cell) and bool(self.view.standable()[cell])
+        return frame.contains(*cell) and bool(ctx.view.standable()[cell])
 
-    def _random_feasible_motion(self, exclude: str, moves_only: bool = False) -> str:
-        """A random motion that the map does not say collides (turns qualify unless ``moves_only``)."""
-        options = [] if moves_only else ["Turn Left", "Turn Right"]
+    def _random_feasible_motion(self, exclude: str) -> str:
+        """A random motion that the map does not say collides (Alg. 3 line 81)."""
+        options = ["Turn Left", "Turn Right"]
         options += [m for m in ("Forward", "Backward", "Pan Left", "Pan Right") if self._standable_after(m)]
         options = [o for o in options if o != exclude] or ["Backward"]
-        return str(options[int(self.rng.integers(len(options)))])
-
-    def _unstick(self, attempt: Attempt) -> Act | None:
-        """The navigator finds no way out from here (an opened door, a dilated corner): a single move the
-        map leaves room for under the simulator's own clearance, at most ``max_unstick`` per subgoal."""
-        if attempt.unsticks >= self.cfg.max_unstick:
-            return None
-        for move in ("Backward", "Pan Left", "Pan Right", "Forward"):
-            after = self.pose.apply_motion(move, True)
-            if self._clear_at(after.x, after.z, self.cfg.unstick_clearance_m):
-                attempt.unsticks += 1
-                return Act(move, f"Collision: no planned way out of here; {move} to get free")
-        return None
+        return str(options[int(self.ctx.rng.integers(len(options)))])

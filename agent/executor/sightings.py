@@ -2,7 +2,7 @@
 
 The map knows where cabinet voxels are, not where one cabinet ends and the next begins: a row of thirty
 doors is one cluster, two drawers stacked 26 cm apart fall into the same height bins, and an opened door
-adds cells in front of the row. Searching by map parts opened some doors twice and never reached others
+adds cells in front of the row, so a search by map parts opens some doors twice and never reaches others
 (a kettle behind a door seen a dozen times, a knife in the drawer above the one opened). Segmentation does
 tell instances apart, so every instance of a container type seen in a frame is remembered here with a
 world point on its face; the search opens those one by one and falls back to map parts only for
@@ -20,8 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from agent.executor.clicks import group_ids
+from agent.executor.mapview import SessionMapView
 from agent.executor.state import ContainerVisit, Point, Sighting
 from agent.geometry import Camera, Pose, camera_position, camera_to_world, pixel_ray_slopes
+from symbolic.ontology import Ontology
 
 SAME_ID_M = 0.6
 """Metres, horizontally: a sighting with the same segmentation id this close is the same instance (its
@@ -177,6 +179,17 @@ def note(sightings: list[Sighting], seen: list[Seen]) -> None:
         known.faces = [a + b for a, b in zip(known.faces, instance.votes, strict=True)]
 
 
+def note_view(sightings: list[Sighting], view: SessionMapView, ontology: Ontology) -> None:
+    """Remember the container instances (``Ontology.enclosing`` types) in this step's frame: the doors a
+    search may open."""
+    percept, classes = view.percept, view.map.classes
+    kinds = {classes.id_of(kind): kind for kind in ontology.enclosing if kind in classes.types}
+    seen = observe(
+        percept.class_ids, percept.instances, percept.depth, view.usable, view.camera, view.pose, kinds
+    )
+    note(sightings, seen)
+
+
 def mark_searched(
     sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None, target: str
 ) -> None:
@@ -190,8 +203,7 @@ def mark_searched(
 def mark_visited(sightings: list[Sighting], visit: ContainerVisit, target: str) -> None:
     """Record that ``visit``'s container was opened (or given up on) for ``target``: both the sighting the
     visit set out for (at ``visit.target``) and whatever sighting lies where its door was clicked. The click
-    lands on the door, not at the sighting's centroid; with a learned segmenter's per-frame ids nothing else
-    ties the two, and a wall cabinet whose centroid lay 0.3 m from its click was opened, looked into and
-    closed 60 times in one game."""
+    lands on the door, not at the sighting's centroid, and with a learned segmenter's per-frame ids nothing
+    else ties the two: the sighting left unmarked would be opened again and again."""
     for point in dict.fromkeys(p for p in (visit.target, visit.opened_at) if p is not None):
         mark_searched(sightings, visit.object_type, point, visit.instance_id, target)

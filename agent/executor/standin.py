@@ -19,9 +19,13 @@ re-plan that names it again goes straight to the kin.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from agent.executor.choice import InstanceChoice
+from agent.executor.context import StepContext
+from agent.executor.state import Attempt
 from symbolic.ontology import AFFORDANCES
-from symbolic.repair import RepairEvent
+from symbolic.repair import KIN_STAND_IN, STAND_IN, RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 A = SubgoalAction
@@ -31,53 +35,55 @@ USES_ON_THE_WAY = frozenset({A.NAVIGATE, A.OPEN, A.CLOSE})
 Close Drawer, Navigate Bread, Slice Bread")."""
 
 
-class KnownTypes(InstanceChoice):
-    """What both stand-ins ask of the map."""
+@dataclass(eq=False)
+class StandIns:
+    """The ``stand-in`` and ``kin-stand-in`` repairs of the plan (module docstring); owns the types searched
+    for in vain (``Progress.missing``). Each returns whether the plan changed: the subgoal at the pointer
+    is then another."""
+
+    ctx: StepContext
+    missing: list[str]
+    choice: InstanceChoice
 
     def _known(self, object_type: str) -> bool:
         """In view now or mapped (outside spots ruled out)."""
-        return bool(self.view.visible(object_type) or self.view.clusters(object_type))
+        return bool(self.ctx.view.visible(object_type) or self.ctx.view.clusters(object_type))
 
-
-class SlicingStandIn(KnownTypes):
-    """The ``stand-in`` repair of the plan (module docstring)."""
-
-    def _stand_in(self, subgoal: Subgoal) -> bool:
+    def slicing_tool(self, subgoal: Subgoal, attempt: Attempt | None) -> bool:
         """Swap the slicing tool of the Navigate/Pickup at the pointer, and the plan's steps fetching it,
-        for the other kind when only that one is known; True when the plan changed."""
+        for the other kind when only that one is known (``attempt``: the subgoal's attempt so far, if any);
+        True when the plan changed."""
         tool = subgoal.obj
-        tools = self.onto.slicing_tools
+        tools = self.ctx.onto.slicing_tools
         if subgoal.action not in (A.NAVIGATE, A.PICKUP) or tool not in tools:
             return False
-        if self.state.belief.held is not None or self._known(tool):
+        if self.ctx.belief.held is not None or self._known(tool):
             return False  # hands full: repair puts things down before the Pickup, decided then
         end = self._fetched_to_slice(tool)
         if end is None:
             return False
-        attempt = self.state.attempt
-        checked = attempt is not None and attempt.index == self.pointer and attempt.hint_checked
-        if self._opened_for(tool) is not None and not checked:
+        checked = attempt is not None and attempt.index == self.ctx.pointer and attempt.hint_checked
+        if self.choice.opened_for(tool) is not None and not checked:
             return False  # the plan opened a container for it: look in there first
         other = next((t for t in tools if t != tool and self._known(t)), None)
         if other is None:
             return False
-        before = self.plan[self.pointer : end]
+        before = self.ctx.plan[self.ctx.pointer : end]
         after = [
             Subgoal(s.action, other) if s.obj == tool and s.action in (A.NAVIGATE, A.PICKUP) else s
             for s in before
         ]
         reason = f"no {tool} known, a {other} is, and {tool} is fetched to slice: any slicing tool slices"
-        self.repairs.append(RepairEvent("stand-in", self.pointer, reason, tuple(before), tuple(after)))
-        self.plan = self.plan[: self.pointer] + after + self.plan[end:]
-        self.state.attempt = None
-        self.events.append(f"stand-in: {reason}")
+        self.ctx.repairs.append(RepairEvent(STAND_IN, self.ctx.pointer, reason, tuple(before), tuple(after)))
+        self.ctx.plan = self.ctx.plan[: self.ctx.pointer] + after + self.ctx.plan[end:]
+        self.ctx.events.append(f"stand-in: {reason}")
         return True
 
     def _fetched_to_slice(self, tool: str) -> int | None:
         """The index just past the plan's Pickup of ``tool`` (from the pointer on) when the next thing done
         with the tool in hand is a Slice; None when it is fetched for anything else."""
-        plan = self.plan
-        index = self.pointer
+        plan = self.ctx.plan
+        index = self.ctx.pointer
         while index < len(plan) and plan[index].action is A.NAVIGATE and plan[index].obj == tool:
             index += 1
         if index >= len(plan) or plan[index] != Subgoal(A.PICKUP, tool):
@@ -90,49 +96,48 @@ class SlicingStandIn(KnownTypes):
                 return None
         return None
 
-
-class KindStandIn(KnownTypes):
-    """The ``kin-stand-in`` repair of the plan (module docstring)."""
-
-    def _kin_instead_of_giving_up(self, subgoal: Subgoal) -> bool:
+    def kin_instead_of_giving_up(self, subgoal: Subgoal) -> bool:
         """The subgoal is being given up and its object was never found: remember the type as missing and
         swap in a known kin type; True when the plan changed."""
         missing = subgoal.obj
-        if self._known(missing) or not self.onto.kin(missing):
+        if self._known(missing) or not self.ctx.onto.kin(missing):
             return False
-        if missing not in self.state.missing:
-            self.state.missing.append(missing)
-        return self._kin_stand_in(subgoal, f"searched for {missing} in vain")
+        if missing not in self.missing:
+            self.missing.append(missing)
+        return self.kin(subgoal, f"searched for {missing} in vain")
 
-    def _kin_stand_in(self, subgoal: Subgoal, why: str | None = None) -> bool:
+    def kin(self, subgoal: Subgoal, why: str | None = None) -> bool:
         """Swap a type searched for in vain earlier, or just now (``why``), for a kin type the map knows
         that serves the rest of the plan as well (``_serves``); True when the plan changed."""
         missing = subgoal.obj
-        if missing not in self.state.missing or self._known(missing):
+        if missing not in self.missing or self._known(missing):
             return False
-        rest = self.plan[self.pointer :]
-        kin = next((k for k in self.onto.kin(missing) if self._known(k) and self._serves(missing, k)), None)
+        rest = self.ctx.plan[self.ctx.pointer :]
+        kin = next(
+            (k for k in self.ctx.onto.kin(missing) if self._known(k) and self._serves(missing, k)), None
+        )
         if kin is None:
             return False
         after = [Subgoal(s.action, kin) if s.obj == missing else s for s in rest]
         why = why or f"{missing} was searched for in vain before"
         reason = f"{why}; a {kin} is known, and one word names both"
-        self.repairs.append(RepairEvent("kin-stand-in", self.pointer, reason, tuple(rest), tuple(after)))
-        self.plan = self.plan[: self.pointer] + after
-        self.state.attempt = None
-        self.events.append(f"kin-stand-in: {reason}")
+        self.ctx.repairs.append(
+            RepairEvent(KIN_STAND_IN, self.ctx.pointer, reason, tuple(rest), tuple(after))
+        )
+        self.ctx.plan = self.ctx.plan[: self.ctx.pointer] + after
+        self.ctx.events.append(f"kin-stand-in: {reason}")
         return True
 
     def _serves(self, missing: str, kin: str) -> bool:
         """Whether ``kin`` can do all that ``missing`` can (a pan stands in for no pot: the plan may fill
         the pot at the sink to boil something) and takes what the rest of the plan puts on ``missing``."""
-        wanted, offered = self.onto.get(missing), self.onto.get(kin)
+        wanted, offered = self.ctx.onto.get(missing), self.ctx.onto.get(kin)
         if any(getattr(wanted, flag) and not getattr(offered, flag) for flag in AFFORDANCES):
             return False
-        held = self.state.belief.held
-        for subgoal in self.plan[self.pointer :]:
+        held = self.ctx.belief.held
+        for subgoal in self.ctx.plan[self.ctx.pointer :]:
             if subgoal.action is A.PICKUP:
                 held = subgoal.obj
-            if subgoal == Subgoal(A.PLACE, missing) and held and not self.onto.may_hold(kin, held):
+            if subgoal == Subgoal(A.PLACE, missing) and held and not self.ctx.onto.may_hold(kin, held):
                 return False
         return True

@@ -6,7 +6,9 @@ for its false-detection rule, how often the agent looked around a mapped target 
 We add what a kitchen needs: where the agent last acted on each type (so "Close Fridge" closes the fridge
 it opened and "Pickup Mug" takes the mug it washed), the progress on the current subgoal (failed clicks,
 given-up standing positions, the search for an unmapped target) and the failure counts that bound an
-episode. Everything is plain data so the session snapshots compactly (``agent.snapshot``).
+episode. ``ExecutorState`` holds one part per concern, each written by the collaborator that owns it
+(named in the part's docstring). Everything is plain data so the session snapshots compactly
+(``agent.snapshot``).
 """
 
 from __future__ import annotations
@@ -19,9 +21,8 @@ import numpy as np
 from agent.executor.clicks import Click
 from agent.executor.looks import Looks
 from agent.executor.mapview import IgnoredSpot
-from agent.exploration_gt import GoalTransformerExplorer
 from agent.geometry import Pose
-from agent.navigation.exploration import FrontierExplorer
+from agent.navigation.exploration import Explorer
 from symbolic.belief import BeliefState
 from symbolic.subgoals import Subgoal
 
@@ -56,6 +57,17 @@ class Pending:
     box: Box | None = None  # an Open's container: its extent as seen when clicking it (``opened_box``)
     before: tuple[float, float, int] | None = None  # an Open's container: mapped centroid x, z and cell
     # count near the click before the door swung (``Memory.fronts``)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The previous action, judged once when the next frame arrives (``Executor.judge``), before that frame
+    enters the map: what it was, whether it worked, and what the hand holds now."""
+
+    pending: Pending | None  # the action judged (None before the first step, after a Stop)
+    success: bool | None  # None when there was no previous action to judge
+    holding: bool  # the hand holds something in this frame (the map leaves the held object out)
+    held_type: str | None  # what it holds, when known
 
 
 FAILED_CLICK_RADIUS_M = 0.25
@@ -99,7 +111,8 @@ class Hint:
 
 @dataclass
 class Memory:
-    """Where the agent dealt with each object type (world points): later subgoals pick the same instance."""
+    """Where the agent dealt with each object type (world points): later subgoals pick the same instance.
+    Written as subgoals are carried out (``executor``), read by ``choice`` and ``approach``."""
 
     where: dict[str, Point] = field(default_factory=dict)
     """Type -> the last point the agent acted on it, or put it down."""
@@ -153,6 +166,51 @@ class Sighting:
 
 
 @dataclass
+class SearchMemory:
+    """What the container search learned in the episode, by target type (``search``, ``visit``)."""
+
+    looked_into: dict[str, list[Box]] = field(default_factory=dict)  # containers looked into
+    opened_for: dict[str, list[int]] = field(default_factory=dict)  # container ids opened
+    looked_at: dict[str, list[Box]] = field(default_factory=dict)  # open receptacles looked at from near
+    containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
+
+
+@dataclass
+class Detections:
+    """Table 5's Ignore (``detections``): spots ruled out for a type, and how often the agent looked around a
+    mapped X without seeing it. The step's map view reads both."""
+
+    ignored: list[IgnoredSpot] = field(default_factory=list)
+    explore_attempts: dict[str, int] = field(default_factory=dict)  # type -> destination look-arounds
+
+
+@dataclass
+class MotionMemory:
+    """What moving taught (``motion``): Alg. 3 line 80's failed motion, and turns a held object blocks."""
+
+    last_failed_action: str | None = None  # the previous action, when it failed (Alg. 3 line 80)
+    blocked_turns: list[tuple[float, float, float, str]] = field(default_factory=list)
+    """(x, z, yaw, turn) of turns that failed: holding something long, the way it would swing is blocked."""
+    long_held: list[str] = field(default_factory=list)  # held types a turn failed with (too long to swing)
+    manoeuvre: list[str] = field(default_factory=list)  # motions left of a side step made to turn with it
+
+
+@dataclass
+class Progress:
+    """How the episode's plan went so far (``executor``): the counts TEACh's limits bound, and what a
+    re-plan or a retry starts from."""
+
+    failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
+    given_up: int = 0  # subgoals abandoned to repair
+    missing: list[str] = field(default_factory=list)  # planned types searched for in vain (``standin``)
+    retry: list[Subgoal] = field(default_factory=list)  # given-up subgoals, with what repair dropped along,
+    # for one more round when the plan runs out (``PlanProgress.retry_given_up``)
+    retry_rounds: int = 0  # such rounds begun
+    completed: list[Subgoal] = field(default_factory=list)  # subgoals carried out, in order (a re-plan's
+    # history)
+
+
+@dataclass
 class ContainerVisit:
     """One closed container opened to look for the target (the search's last resort)."""
 
@@ -179,9 +237,9 @@ class ContainerVisit:
 
 @dataclass
 class SearchState:
-    """How far the search for an unmapped target has got (search.py)."""
+    """How far the search for an unmapped target has got (``search``, ``visit``)."""
 
-    explorer: FrontierExplorer | GoalTransformerExplorer | None = None
+    explorer: Explorer | None = None
     explore_steps: int = 0
     exhausted: bool = False  # frontier exploration has nothing left to show
     visit: ContainerVisit | None = None
@@ -192,6 +250,18 @@ class SearchState:
     switch_looked: bool = False  # the close look beside what a switch controls was considered
     doors_closed: int = 0  # containers the search closed (each may free a way its open door barred)
     unseen_opens: list[int] = field(default_factory=list)  # instances whose Open changed nothing in view
+
+
+@dataclass
+class RowProgress:
+    """The switches of a row (stove knobs) switched for the current subgoal (``switches``)."""
+
+    switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of those switched
+    steps: int = 0  # actions spent on the rest of the row since the first switch
+    pan: str | None = None  # a sideways step to see the rest of the row past the view's edge (once)
+    panned: bool = False  # that step was taken
+    late_switch: Click | None = None  # a switch of the row seen only while turning it off: to turn on now
+    late_switched: list[Point] = field(default_factory=list)  # where such late switches were clicked
 
 
 @dataclass
@@ -206,7 +276,7 @@ class Attempt:
     failed_clicks: list[FailedClick] = field(default_factory=list)
     bad_stands: list[Spot] = field(default_factory=list)  # standing spots where it kept failing
     unreachable: list[tuple[Spot, int]] = field(default_factory=list)  # mapped clusters the navigator could
-    # not reach, with ``search.doors_closed`` at the time (``choice._found_unreachable``)
+    # not reach, with ``search.doors_closed`` at the time (``InstanceChoice.found_unreachable``)
     heading_for: Spot | None = None  # the mapped instance walked toward last step (x, z)
     vanished: list[Spot] = field(default_factory=list)  # where one walked toward was gone from the map
     glanced: list[Spot] = field(default_factory=list)  # standing cells it pitched toward a seen X from
@@ -223,14 +293,8 @@ class Attempt:
     full: list[Box] = field(default_factory=list)  # extents of receptacles a Place kept failing on: full
     hint_checked: bool = False  # the container the plan opened for the target was looked into
     accept_second: bool = False  # a look around found nothing better than a second-rate instance
-    switched: list[tuple[int, Point]] = field(default_factory=list)  # (id, where) of the switches of a row
-    # (stove knobs) switched this subgoal
-    switch_steps: int = 0  # actions spent on the rest of the row since the first switch
-    row_pan: str | None = None  # a sideways step to see the rest of the row past the view's edge (once)
-    row_panned: bool = False  # that step was taken
-    late_switch: Click | None = None  # a switch of the row seen only while turning it off: to turn on now
-    late_switched: list[Point] = field(default_factory=list)  # where such late switches were clicked
-    blind_clicks: int = 0  # clicks aimed at a remembered spot of the target (``_click_remembered``)
+    row: RowProgress = field(default_factory=RowProgress)
+    blind_clicks: int = 0  # clicks aimed at a remembered spot of the target (``Approach.click_remembered``)
 
     def instance_failures(self, instance_id: int, point: Point, persistent_ids: bool) -> int:
         """Failed clicks on an instance: by its id when ids persist across frames (the oracle's), else the
@@ -252,30 +316,14 @@ class Attempt:
 
 @dataclass
 class ExecutorState:
-    """Everything the executor carries from one step to the next."""
+    """Everything the executor carries from one step to the next, one part per concern."""
 
     belief: BeliefState
     memory: Memory = field(default_factory=Memory)
+    searched: SearchMemory = field(default_factory=SearchMemory)
+    detections: Detections = field(default_factory=Detections)
+    motion: MotionMemory = field(default_factory=MotionMemory)
+    progress: Progress = field(default_factory=Progress)
     hints: list[Hint] = field(default_factory=list)  # the commander's, in plan order, not yet used
     attempt: Attempt | None = None
     pending: Pending | None = None
-    ignored: list[IgnoredSpot] = field(default_factory=list)
-    explore_attempts: dict[str, int] = field(default_factory=dict)  # type -> destination look-arounds
-    searched: dict[str, list[Box]] = field(default_factory=dict)  # target type -> containers looked into
-    opened_for: dict[str, list[int]] = field(default_factory=dict)  # target type -> container ids opened
-    looked_at: dict[str, list[Box]] = field(default_factory=dict)  # target type -> open receptacles seen
-    containers: list[Sighting] = field(default_factory=list)  # container instances seen (``sightings``)
-    failed_actions: int = 0  # every action judged failed (TEACh's failure limit counts them all)
-    given_up: int = 0  # subgoals abandoned to repair
-    missing: list[str] = field(default_factory=list)  # planned types searched for in vain (``standin``)
-    retry: list[Subgoal] = field(default_factory=list)  # given-up subgoals, with what repair dropped along,
-    # for one more round when the plan runs out (``_retry_given_up``)
-    retry_rounds: int = 0  # such rounds begun
-    completed: list[Subgoal] = field(
-        default_factory=list
-    )  # subgoals carried out, in order (a re-plan's history)
-    last_failed_action: str | None = None  # the previous action, when it failed (Alg. 3 line 80)
-    blocked_turns: list[tuple[float, float, float, str]] = field(default_factory=list)
-    """(x, z, yaw, turn) of turns that failed: holding something long, the way it would swing is blocked."""
-    long_held: list[str] = field(default_factory=list)  # held types a turn failed with (too long to swing)
-    manoeuvre: list[str] = field(default_factory=list)  # motions left of a side step made to turn with it

@@ -49,7 +49,8 @@ class NavGrids:
 
     obstacles: np.ndarray  # bool [X, Z]: something the body cannot pass (HLSM: occupied below 1.75 m)
     explored: np.ndarray  # bool [X, Z]: observed at least once (HLSM's observability)
-    collisions: np.ndarray | None = None  # bool [X, Z]: the map's collision layer (blocked moves), if any
+    collisions: np.ndarray | None = None  # bool [X, Z]: the map's collision layer (blocked moves, JARVIS
+    # Alg. 3 l. 66's UpdateCollision), if any: the one memory of blocked moves navigators plan around
 
     def __post_init__(self) -> None:
         for name in ("obstacles", "explored", "collisions"):
@@ -103,15 +104,11 @@ class NavDecision:
 
 
 class Navigator(Protocol):
-    """A planner from the agent's pose to a goal region on the 2D map (JARVIS's FMM, HLSM's VIN)."""
+    """A planner from the agent's pose to a goal region on the 2D map (JARVIS's FMM, HLSM's VIN). It keeps
+    nothing between calls: blocked moves reach it as ``NavGrids.collisions``."""
 
     def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
         """The next motion action toward ``goal``; re-planned from scratch on every call."""
-        ...
-
-    def record_collision(self, pose: Pose, action: str, frame: GridFrame) -> list[Cell]:
-        """Remember that ``action`` from ``pose`` was blocked; returns the cells marked (for the map's
-        collision layer)."""
         ...
 
 
@@ -302,38 +299,3 @@ class Lattice:
         for k in range(s + 1):
             z_edges &= cols[:, k : k + s * (Lz - 1) : s]
         return x_edges, z_edges
-
-
-class CollisionMemory:
-    """Moves that were blocked, kept as world points so they survive the map growing or shifting.
-
-    JARVIS Algorithm 3 line 66 (UpdateCollision): a failed move marks the spot it tried to reach, one
-    GRID_STEP_M away in the move's direction. Dilated by the FMM navigator's collision radius, or pooled
-    into its footprint state by the VIN, it closes that lattice node and every move into it, while the
-    agent's own node, a full move away, stays open.
-    """
-
-    def __init__(self) -> None:
-        self._points: list[tuple[float, float]] = []
-
-    def record(self, pose: Pose, action: str, frame: GridFrame) -> list[Cell]:
-        """Remember the spot ``action`` failed to reach; returns its map cell (none when it lies outside
-        the map or the action does not translate the body)."""
-        if action not in MOVE_SIDES:
-            if action in ("Turn Left", "Turn Right", "Look Up", "Look Down"):
-                return []
-            raise ValueError(f"unknown motion action {action!r}; known: {sorted(MOVE_SIDES)} and turns/looks")
-        di, dj = STEPS[(heading_of(pose.yaw) + MOVE_SIDES[action]) % 4]
-        point = (pose.x + GRID_STEP_M * di, pose.z + GRID_STEP_M * dj)
-        self._points.append(point)
-        cell = frame.world_to_cell(*point)
-        return [cell] if frame.contains(*cell) else []
-
-    def mask(self, frame: GridFrame) -> np.ndarray:
-        """bool [X, Z]: the cells of the remembered spots that fall inside this map."""
-        grid = np.zeros(frame.shape, dtype=bool)
-        for x, z in self._points:
-            cell = frame.world_to_cell(x, z)
-            if frame.contains(*cell):
-                grid[cell] = True
-        return grid

@@ -4,7 +4,8 @@ HLSM's SampleExplorationPosition (A.6.2): the ground set is every observed posit
 the frontier the ground positions next to an unobserved one; sample uniformly from the frontier, or from
 the ground when there is none. Its exploration loop (A.6): look around 360°, navigate to a sampled
 position, look around again, until the target shows up. JARVIS explores with its learned Goal Transformer
-instead; this is the fallback until that model exists.
+instead (``agent.exploration_gt``); both follow the ``Explorer`` contract here, and ``agent.explorers``
+names them for sessions.
 
 Our additions, each because uniform sampling wastes moves otherwise: ground cells keep the body's radius
 from observed obstacles (else the position cannot be stood on); positions reachable through observed ground
@@ -14,8 +15,9 @@ just happened); positions the navigator could not reach are not sampled again.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Protocol
 
 import cv2
 import numpy as np
@@ -132,11 +134,41 @@ class ExploreDecision:
     path: tuple[Cell, ...] = ()  # the navigator's planned cells toward it
 
 
+@dataclass(frozen=True, eq=False)
+class ExploreInput:
+    """What an explorer is given at each step: the map and pose (every explorer reads them), and what a
+    learned explorer reads besides."""
+
+    grids: NavGrids
+    frame: GridFrame
+    pose: Pose
+    rgb: np.ndarray | None = None
+    """uint8 [H, W, 3]: this step's frame, when the step brought one."""
+    subgoals: Sequence[tuple[str, str]] = ()
+    """The future subgoals as (action, object type), the current one first."""
+    last_action_success: bool | None = None
+    """Whether the previous action succeeded (None: unknown)."""
+
+
+class Explorer(Protocol):
+    """What the search asks for each exploring step while its target is not in the map: the next move, or a
+    decision without action when nothing is left to explore. An explorer lives for one subgoal's search,
+    so it may keep state between calls."""
+
+    reads_rgb: bool
+    """Whether ``next_action`` needs ``seen.rgb``; a step without a frame explores with one that does not."""
+
+    def next_action(self, seen: ExploreInput) -> ExploreDecision: ...
+
+
 class FrontierExplorer:
     """HLSM's exploration loop: look around, go to a sampled position, look around there, repeat.
 
-    Keeps its position until reached, unreachable or too long in coming; deterministic given ``rng``.
+    Keeps its position until reached, unreachable or too long in coming; deterministic given ``rng``. It
+    reads the map alone.
     """
+
+    reads_rgb = False
 
     def __init__(
         self, navigator: Navigator, rng: np.random.Generator, config: ExplorationConfig | None = None
@@ -149,8 +181,9 @@ class FrontierExplorer:
         self._moves = 0
         self._rejected: list[tuple[float, float]] = []
 
-    def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose) -> ExploreDecision:
+    def next_action(self, seen: ExploreInput) -> ExploreDecision:
         """The next look-around turn or move toward the exploration position, sampling one when needed."""
+        grids, frame, pose = seen.grids, seen.frame, seen.pose
         if self._turns_left > 0:
             self._turns_left -= 1
             return ExploreDecision(action="Turn Left", reason="look_around", target=self._target)

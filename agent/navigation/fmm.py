@@ -16,18 +16,17 @@ strictly smaller value and following the field always reaches the goal.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import skfmm
 
 from agent.geometry import Pose
+from agent.mapping import GridFrame
 from agent.navigation.base import (
     MOVE_SIDES,
     STEPS,
     Cell,
-    CollisionMemory,
-    GridFrame,
     Lattice,
     NavDecision,
     NavGoal,
@@ -61,9 +60,8 @@ class FmmConfig:
     squeeze_everywhere: bool = True  # when even that reaches no goal, plan with the tight radii over the
     # whole map: a mapped face lies up to a cell (5 cm) nearer than the furniture's, so a gap or a standing
     # spot far from the agent can be closed at the full clearance though the simulator lets the body
-    # through (with the expert's subgoals, ALFRED valid_seen slots 32, 43, 51 and 63 never reached a knife,
-    # a candle, a cup and a floor lamp without it, and do with it); a gap that proves too narrow is a
-    # collision, remembered, and the plan after it goes round
+    # through (a knife or a floor lamp then stays out of reach for the whole episode); a gap that proves
+    # too narrow is a collision, remembered, and the plan after it goes round
     collision_radius_m: float = 0.1  # metres: a remembered collision closes the spot the move tried to
     # reach and the move into it, but not the agent's node a full move away (the map's collision strip
     # starts 0.15 m ahead of the agent, so the body radius would close the agent in)
@@ -236,25 +234,19 @@ def descend(ahead: np.ndarray, cost: np.ndarray, start: Cell) -> list[Cell]:
     raise AssertionError(f"no goal after {cost.size} descending moves from {start}")
 
 
+@dataclass(frozen=True)
 class FmmNavigator:
-    """JARVIS's FMM planner (module docstring) with obstacle dilation and collision memory."""
+    """JARVIS's FMM planner (module docstring): obstacles dilated by the body's radius, the map's
+    remembered collisions (``NavGrids.collisions``) by ``collision_radius_m``."""
 
-    def __init__(self, config: FmmConfig | None = None) -> None:
-        self.config = config or FmmConfig()
-        self.collisions = CollisionMemory()
-
-    def record_collision(self, pose: Pose, action: str, frame: GridFrame) -> list[Cell]:
-        """Remember a blocked move (JARVIS Algorithm 3, UpdateCollision); the map cell it marks, if any."""
-        return self.collisions.record(pose, action, frame)
+    config: FmmConfig = field(default_factory=FmmConfig)
 
     def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
         """Re-plan from scratch and take the first move of the cheapest lattice path to a goal cell."""
         cell, settled = start_cell_or_decision(grids, frame, pose, goal)
         if settled is not None:
             return settled
-        collisions = self.collisions.mask(frame)
-        if grids.collisions is not None:
-            collisions |= grids.collisions
+        collisions = grids.collisions if grids.collisions is not None else np.zeros(grids.shape, dtype=bool)
         for radius, everywhere in self._clearances():
             planned = self._plan(grids, frame, cell, collisions, goal, radius, everywhere)
             if planned is not None:

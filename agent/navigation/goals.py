@@ -7,7 +7,7 @@ be brought into view by the 90° turns available.
 How close is close enough: AI2-THOR checks its 1.5 m ``visibilityDistance`` with an OverlapCapsule around
 the agent's vertical axis (``collidersWithinCapsuleCastOfAgent``), i.e. a horizontal distance whatever the
 target's height: an egg on the fridge's bottom shelf is as reachable as a mug on the counter. Our harness
-measures the same way (``harness.reach``). The agent stands within that distance less a margin for 5 cm
+measures the same way (``harness.sim.reach``). The agent stands within that distance less a margin for 5 cm
 cells, for the click landing beyond the target's nearest cell and for what the clicks keep in hand.
 """
 

@@ -13,22 +13,21 @@ quarter to its left -> Turn Left, right or behind -> Turn Right.
 
 Unlike the FMM navigator the obstacle test is HLSM's: a state is free when its footprint holds no obstacle,
 so the agent may pass closer to furniture than its radius (0.125 m clearance at least), and blocked moves
-are learnt through collision memory.
+are learnt through the map's collision layer (``NavGrids.collisions``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from agent.geometry import Pose
+from agent.mapping import GridFrame
 from agent.navigation.base import (
     STEPS,
     Cell,
-    CollisionMemory,
-    GridFrame,
     Lattice,
     NavDecision,
     NavGoal,
@@ -165,23 +164,19 @@ def greedy_rollout(V: np.ndarray, states: VinStates, start: Cell, config: VinCon
     return path
 
 
+@dataclass(frozen=True)
 class VinNavigator:
-    """HLSM's NavigateTo (module docstring), with the same collision memory as the FMM navigator."""
+    """HLSM's NavigateTo (module docstring): a state whose footprint holds an obstacle or one of the map's
+    remembered collisions (``NavGrids.collisions``) is an OBSTACLE."""
 
-    def __init__(self, config: VinConfig | None = None) -> None:
-        self.config = config or VinConfig()
-        self.collisions = CollisionMemory()
-
-    def record_collision(self, pose: Pose, action: str, frame: GridFrame) -> list[Cell]:
-        """Remember a blocked move; its footprint state becomes OBSTACLE from the next call on."""
-        return self.collisions.record(pose, action, frame)
+    config: VinConfig = field(default_factory=VinConfig)
 
     def next_action(self, grids: NavGrids, frame: GridFrame, pose: Pose, goal: NavGoal) -> NavDecision:
         """Solve the MDP afresh and map its greedy action at the agent's state through HLSM Table 4."""
         cell, settled = start_cell_or_decision(grids, frame, pose, goal)
         if settled is not None:
             return settled
-        blocked = grids.blocked() | self.collisions.mask(frame)
+        blocked = grids.blocked()
         lattice = Lattice.through(cell, grids.shape, cells_per_step(frame))
         states = VinStates.pool(blocked, grids.explored, goal.cells, lattice)
         V = value_iteration(states, self.config)

@@ -18,8 +18,8 @@ from typing import Literal
 from harness.commander.tools import CommanderTools, ObjectLocation
 from harness.expert.planning import ExpertSubgoal, PlanError, PlanState
 from harness.expert.recipes import Task, plan_task
-from harness.simulator import Simulator
-from harness.world import World
+from harness.sim.simulator import Simulator
+from harness.world.model import World
 from symbolic.commands import ClickHint, CommandItem, StandHint, format_command
 from symbolic.subgoals import Subgoal, SubgoalAction
 

@@ -3,29 +3,22 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import get_args
 
-from harness.camera import CameraSpec
-from harness.client import AgentClient
 from harness.commander.bot import InfoLevel
 from harness.commander.episode import run_tatc_episode
-from harness.runner import (
-    DEFAULT_CAMERA,
-    EpisodeUnavailable,
-    RunnerOptions,
-    ServiceUnreachable,
-    describe_metrics,
-    describe_subgoals,
-    generated_tfd_episode,
-    service_url,
-)
-from harness.splits import SPLITS
+from harness.drive.client import AgentClient
+from harness.drive.generated import EpisodeUnavailable, generated_tfd_episode
+from harness.drive.run_cli import print_run
+from harness.drive.runner import DEFAULT_CAMERA, RunnerOptions
+from harness.drive.service import ServiceUnreachable, add_service_arguments, service_url
+from harness.render.camera import CameraSpec
 from harness.tasks.teach import BENCHMARK_TASKS
-from symbolic.cli_args import Parser, fail, http_url, int_at_least, plain, port
+from harness.world.splits import SPLITS
+from symbolic.cli_args import Parser, fail, int_at_least, plain
 from symbolic.thor import TEACH_HFOV_DEG
 
 
@@ -37,10 +30,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--info", default="full", choices=get_args(InfoLevel), help="what the commander may tell"
     )
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument("--url", type=http_url, help="base URL of the follower service")
-    where.add_argument("--start-service", action="store_true", help="start a follower service for this run")
-    parser.add_argument("--port", type=port, help="port of a running service (or for --start-service)")
+    add_service_arguments(parser, "follower service")
     parser.add_argument(
         "--camera", type=int_at_least(32), default=DEFAULT_CAMERA.width, help="square frame side, px"
     )
@@ -73,12 +63,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         fail("python -m harness commander", str(error))
     for turn in dialogue:
         print(f"  {turn['speaker']}: {turn['text']}")
-    print("subgoals:")
-    print("\n".join(describe_subgoals(run)))
-    print("metrics:")
-    print("\n".join(describe_metrics(run)))
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({**run.summary(), "dialogue": dialogue}, indent=2))
-        print(f"wrote {args.out}")
+    print_run(run, args.out, {"dialogue": dialogue})
     return 0

@@ -26,12 +26,10 @@ from dataclasses import dataclass, replace
 
 import httpx
 
-from harness.camera import CameraSpec
-from harness.client import AgentClient, ServiceError, pose_of
 from harness.commander.bot import Commander, InfoLevel
 from harness.commander.tools import CommanderTools
-from harness.episodes.model import Episode
-from harness.runner import (
+from harness.drive.client import AgentClient, ServiceError, pose_of
+from harness.drive.runner import (
     EpisodeLog,
     EpisodeRun,
     PlanProgress,
@@ -39,7 +37,9 @@ from harness.runner import (
     execute_action,
     session_payload,
 )
-from harness.simulator import Simulator
+from harness.episodes.model import Episode
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
 from harness.tasks.alfred import AlfredTask
 from symbolic.commands import CommandItem, parse_command
 from symbolic.ontology import load_ontology

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from harness.camera import CameraPose, CameraSpec
-from harness.catalog import load_catalog
 from harness.expert.expert import ExpertConfig, goal_report
 from harness.expert.navigation import (
     THOROUGH_SIGHT_RENDERS,
@@ -27,11 +25,13 @@ from harness.expert.navigation import (
     search_motion,
 )
 from harness.expert.recipes import Task
-from harness.navgrid import reachable_grid
-from harness.render import Renderer
-from harness.simulator import Simulator
+from harness.render.camera import CameraPose, CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.sim.simulator import Simulator
 from harness.tasks.progress import GoalReport
-from harness.world import World
+from harness.world.catalog import load_catalog
+from harness.world.model import World
 from symbolic.commands import CLICK_DECIMALS
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import INTERACTION_DISTANCE_M, TEACH_LOOK_STEP_DEG

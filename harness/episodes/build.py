@@ -22,7 +22,6 @@ from typing import Any
 
 from PIL import Image
 
-from harness.camera import CameraSpec
 from harness.episodes.dialogue import (
     Chunk,
     Dialogue,
@@ -52,11 +51,12 @@ from harness.episodes.teach_format import (
     utterance_entry,
 )
 from harness.expert.expert import ExpertAction, ExpertTrajectory
-from harness.render import Renderer
-from harness.simulator import Simulator
-from harness.splits import Split
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.simulator import Simulator
 from harness.tasks.teach import TaskInstance
-from harness.world import World
+from harness.world.model import World
+from harness.world.splits import Split
 from symbolic.ontology import Ontology
 from symbolic.subgoals import subgoals_from_teach_actions, to_teach_words
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE, TEACH_LOOK_STEP_DEG

@@ -26,12 +26,11 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal, Protocol
 
-from harness.catalog import load_catalog
 from harness.episodes.phrases import PhraseBank, Voice, draw_voice, template_slots, typed
-from harness.render import Renderer
-from harness.simulator import POUR_SINKS
+from harness.render.renderer import Renderer
 from harness.tasks.teach import TaskInstance
-from harness.world import World, WorldObject
+from harness.world.catalog import load_catalog
+from harness.world.model import World, WorldObject
 from symbolic.ontology import Ontology, UnknownObjectType
 from symbolic.subgoals import object_type_of_id
 
@@ -250,7 +249,8 @@ def plan_steps(actions: Sequence[DriverAction], initial: World, ontology: Ontolo
             draft = Step(kind, 0, 0, held=_type(put), recep=recep, recep_id=oid, count=count)
         elif action == "Pour" and held is not None:
             target = _type(oid)
-            kind = "water_plant" if target == "HousePlant" else "empty" if target in POUR_SINKS else "pour"
+            empties = target in ontology.pour_basins
+            kind = "water_plant" if target == "HousePlant" else "empty" if empties else "pour"
             draft = Step(kind, 0, 0, held=_type(held), recep=target, recep_id=oid)
         elif action == "ToggleOn" and _type(oid) == "Faucet" and (washed := _next_pickup(interactions, k)):
             draft = Step(_wash_kind(washed, initial, ontology), 0, 0, held=_type(washed), recep="SinkBasin")

@@ -1,7 +1,7 @@
 """``python -m harness generate``: TEACh-format games, EDH and TfD instances and ALFRED-style instructions.
 
 For each split and each index ``i`` in ``[seed_start, seed_start + n)``: the task is ``tasks[i % len(tasks)]``
-(the 12 TEACh benchmark tasks by default), the world and task seeds come from ``harness.splits`` (so
+(the 12 TEACh benchmark tasks by default), the world and task seeds come from ``harness.world.splits`` (so
 valid_unseen only ever uses world seeds train never does), the expert solves it and ``build.build_game``
 makes the files. Games whose task cannot be posed or whose expert fails are skipped and counted, with
 reasons, in ``manifest.json``. Output, in TEACh's layout::
@@ -28,14 +28,14 @@ from typing import Any, TextIO, cast
 
 from tqdm import tqdm
 
-from harness.camera import CameraSpec
 from harness.episodes.build import BuildConfig, BuildError, BuiltGame, GameSource, build_game
 from harness.episodes.phrases import PhraseBank, load_phrase_bank
 from harness.episodes.sample import TaskSamplingError, sample_task_world
 from harness.episodes.teach_format import GAME_VERSION, camera_dict, write_json
 from harness.expert.expert import ExpertConfig, run_expert
-from harness.splits import SPLITS, Split, task_seed, world_seed
+from harness.render.camera import CameraSpec
 from harness.tasks.teach import BENCHMARK_TASKS
+from harness.world.splits import SPLITS, Split, task_seed, world_seed
 from symbolic.cli_args import Parser, int_at_least
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE, TEACH_LOOK_STEP_DEG

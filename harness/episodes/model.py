@@ -9,11 +9,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from harness.splits import Split
 from harness.tasks.alfred import AlfredTask, check_alfred
 from harness.tasks.progress import GoalReport
 from harness.tasks.teach import TaskInstance, check_task
-from harness.world import World
+from harness.world.model import World
+from harness.world.splits import Split
 from symbolic.subgoals import Subgoal
 
 Benchmark = Literal["edh", "tfd", "alfred"]

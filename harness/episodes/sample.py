@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 from harness.tasks.sampling import is_feasible, parameter_space, required_types
 from harness.tasks.teach import BENCHMARK_TASKS, TaskInstance, make_task_instance
-from harness.world import RoomKind, World
-from harness.worldgen import WorldGenConfig, WorldGenError, generate_world
+from harness.world.model import RoomKind, World
+from harness.world.procedural.config import WorldGenConfig, WorldGenError
+from harness.world.procedural.generate import generate_world
 from symbolic.ontology import load_ontology
 
 KIND_PREFERENCE: dict[str, tuple[RoomKind, ...]] = {

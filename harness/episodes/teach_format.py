@@ -23,12 +23,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast, get_args
 
-from harness.camera import CameraSpec
 from harness.episodes.model import Benchmark, Episode
-from harness.simulator import Simulator
-from harness.splits import SPLITS, Split
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
 from harness.tasks.teach import TaskInstance, check_task
-from harness.world import AgentState, RoomKind, World
+from harness.world.model import AgentState, RoomKind, World
+from harness.world.splits import SPLITS, Split
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import Subgoal, parse_subgoals
 from symbolic.thor import (

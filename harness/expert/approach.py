@@ -14,8 +14,8 @@ next thing where they stand (``stays_put``):
 Staying means acting from the pose the agent stands in whenever the object shows within reach from it
 (``expert._Episode._view_from_here``), taking whichever slice of the cut shows there
 (``_piece_at_hand``); a container is opened or filled from where its inside is within reach. Geometry can
-still overrule the rule (a plate set deep in a microwave, a mug below the rim of the sink): on the 296
-generated valid_unseen games that leaves 24 walks in 1,456 stays, where there had been 98.
+still overrule the rule (a plate set deep in a microwave, a mug below the rim of the sink): on 296
+generated valid_unseen games it does so for 24 of 1,456 stays.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from harness.expert.planning import ExpertSubgoal
-from harness.world import World
+from harness.world.model import World
 from symbolic.ontology import Ontology
 from symbolic.subgoals import SubgoalAction
 

@@ -24,8 +24,8 @@ from harness.expert.skills import (
     deliver,
     wash,
 )
-from harness.physics import SLICE_COUNTS
-from harness.world import WorldObject
+from harness.sim.physics import SLICE_COUNTS
+from harness.world.model import WorldObject
 
 FAR_FROM_FOOD_STEPS = 6.0
 """A serving container farther than this (grid steps) from the food is brought to it when several pieces
@@ -159,20 +159,6 @@ def _prepare_container(
     state.protected.add(container_id)
 
 
-def _cook_on_dish(
-    state: PlanState,
-    pieces: Sequence[str],
-    container_id: str,
-    surface_type: str | None,
-    site: tuple[float, float],
-) -> None:
-    """Pieces onto the dish, the dish into the microwave, out again and set down: one trip, one cycle."""
-    for piece in pieces:
-        deliver(state, piece, container_id)
-    cook_in_microwave(state, [container_id], {container_id: None})
-    _set_down_container(state, container_id, surface_type, site)
-
-
 def _cook_for(
     state: PlanState,
     pieces: Sequence[str],
@@ -181,11 +167,19 @@ def _cook_for(
     site: tuple[float, float],
 ) -> None:
     """Cook pieces for a dish: on the dish in the microwave if it takes the dish, else piece by piece."""
+
+    def on_the_dish(trial: PlanState) -> None:
+        """Pieces onto the dish, the dish into the microwave, out again and set down: one trip, one cycle."""
+        for piece in pieces:
+            deliver(trial, piece, container_id)
+        cook_in_microwave(trial, [container_id], {container_id: None})
+        _set_down_container(trial, container_id, surface_type, site)
+
     routes: list[Callable[[PlanState], None]] = []
     if state.of_types(["Microwave"]) and state.ontology.accepts(
         "Microwave", state.obj(container_id).object_type
     ):
-        routes.append(lambda trial: _cook_on_dish(trial, pieces, container_id, surface_type, site))
+        routes.append(on_the_dish)
     routes.append(lambda trial: cook(trial, pieces, {p: container_id for p in pieces}))
     first_that_works(state, routes, lambda trial, route: route(trial))
 

@@ -17,8 +17,6 @@ import re
 import time
 from dataclasses import dataclass, field, replace
 
-from harness.camera import CameraSpec
-from harness.catalog import load_catalog
 from harness.expert.approach import stays_put
 from harness.expert.navigation import (
     THOROUGH_SIGHT_RENDERS,
@@ -34,13 +32,15 @@ from harness.expert.navigation import (
 )
 from harness.expert.planning import ExpertSubgoal, PlanError
 from harness.expert.recipes import Task, plan_task
-from harness.failures import FailureReason
-from harness.render import Renderer
-from harness.simulator import HELD_COLLISION_SIZE_M, ActionResult, Simulator
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.failures import FailureReason
+from harness.sim.simulator import HELD_COLLISION_SIZE_M, ActionResult, Simulator
 from harness.tasks.alfred import check_alfred
 from harness.tasks.progress import GoalReport
 from harness.tasks.teach import TaskInstance, check_task
-from harness.world import World
+from harness.world.catalog import load_catalog
+from harness.world.model import World
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.subgoals import ACTION_NAME_FOR_SUBGOAL, Subgoal, SubgoalAction
 from symbolic.thor import (

@@ -7,40 +7,34 @@ strictly shorter. Backward is never needed (a turn and Forward reach the same ce
 tilt the camera; they follow the body motion.
 
 An object is interactable from a pose when some pixel of its instance mask sees a surface within 1.5 m of
-the agent's vertical axis (AI2-THOR's visibilityDistance cylinder, ``harness.reach``, checked at the clicked
-pixel as the simulator checks it). Candidate poses are reachable cells within that distance of the object's
-box, at yaws and horizons that
-bring the box into the field of view; they are tried in order of motion cost and each one is verified on
-a depth + instance render at reduced resolution. The click is an interior pixel of the visible mask
-(distance transform) near its centroid; for placing on a top surface (counter, table) it is a pixel of the
-visible free part of that surface, since the simulator puts the object at the free spot nearest the click.
+the agent's vertical axis (AI2-THOR's visibilityDistance cylinder, ``harness.sim.reach``, checked at the
+clicked pixel as the simulator checks it). Candidate poses are reachable cells within that distance of the
+object's box, at yaws and horizons that bring the box into the field of view; they are tried in order of
+motion cost and each one is verified on a depth + instance render at reduced resolution. The click is an
+interior pixel of the visible mask (distance transform) near its centroid; for placing on a top surface
+(counter, table) it is a pixel of the visible free part of that surface, since the simulator puts the
+object at the free spot nearest the click.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
-from harness.camera import CameraPose, CameraSpec, rays_world
 from harness.expert.planning import FACING_AXES
-from harness.geometry import DRAWER_SLIDE_FRACTION, SLIDING_TYPES
-from harness.navgrid import reachable_grid
-from harness.physics import encloses
-from harness.reach import in_reach
-from harness.render import Frame, Renderer
-from harness.world import World, WorldObject
-from symbolic.ontology import load_ontology
-from symbolic.thor import (
-    GRID_STEP_M,
-    HORIZON_MAX_DEG,
-    HORIZON_MIN_DEG,
-    INTERACTION_DISTANCE_M,
-    TURN_STEP_DEG,
-)
+from harness.render.camera import CameraPose, CameraSpec, rays_world
+from harness.render.geometry import DRAWER_SLIDE_FRACTION, SLIDING_TYPES
+from harness.render.renderer import Frame, Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.sim.physics import encloses
+from harness.sim.reach import in_reach
+from harness.world.model import World, WorldObject
+from symbolic.ontology import Ontology, load_ontology
+from symbolic.thor import GRID_STEP_M, HORIZON_MAX_DEG, HORIZON_MIN_DEG, INTERACTION_DISTANCE_M, TURN_STEP_DEG
 
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 
@@ -261,7 +255,7 @@ def candidate_poses(
     cz = room.origin[1] + (izs + 0.5) * GRID_STEP_M
     dx = np.maximum(np.maximum(x0 - cx, cx - x1), 0.0)  # [M] horizontal gaps to the box
     dz = np.maximum(np.maximum(z0 - cz, cz - z1), 0.0)
-    near = np.hypot(dx, dz) <= max_distance_m  # AI2-THOR's reach cylinder (harness.reach)
+    near = np.hypot(dx, dz) <= max_distance_m  # AI2-THOR's reach cylinder (harness.sim.reach)
     if front is not None:
         facing, plane = front
         axis, sign = FACING_AXES[facing % 360]
@@ -478,6 +472,7 @@ def _budgeted(candidates: list[PoseCandidate], budget: int) -> list[PoseCandidat
     return candidates[:head] + [rest[i] for i in dict.fromkeys(picks.tolist())]
 
 
+@dataclass(eq=False)
 class SightOracle:
     """Whether an object could be acted on from some reachable pose: the planner's look-ahead.
 
@@ -485,23 +480,15 @@ class SightOracle:
     cached per object and the state of everything around it.
     """
 
-    def __init__(
-        self,
-        renderer: Renderer,
-        camera: CameraSpec,
-        look_step_deg: int,
-        reach_margin_m: float,
-        max_renders: int,
-    ) -> None:
-        self.renderer = renderer
-        self.camera = camera
-        self.look_step_deg = look_step_deg
-        self.reach_margin_m = reach_margin_m
-        self.max_renders = max_renders
-        self.ontology = load_ontology()
-        self._answers: dict[tuple[object, ...], str] = {}
-        """"seen", "unseen" (within the quick budget) or "hidden" (from every pose tried thoroughly)."""
-        self._reaches: dict[tuple[object, ...], Reach] = {}
+    renderer: Renderer
+    camera: CameraSpec
+    look_step_deg: int
+    reach_margin_m: float
+    max_renders: int
+    ontology: Ontology = field(default_factory=load_ontology, init=False)
+    _answers: dict[tuple[object, ...], str] = field(default_factory=dict, init=False)
+    """"seen", "unseen" (within the quick budget) or "hidden" (from every pose tried thoroughly)."""
+    _reaches: dict[tuple[object, ...], Reach] = field(default_factory=dict, init=False)
 
     def can_act_on(self, world: World, object_id: str, thorough: bool = False) -> bool:
         """``thorough``: try every candidate pose instead of the budget (before declaring it out of sight)."""

@@ -4,7 +4,7 @@ Recipes (``harness.expert.recipes``) build plans by calling the primitives of ``
 primitive behaves like a careful person: the hand is emptied onto a free surface before picking something
 up, closed fridges, cabinets and drawers are opened before reaching in (and closed again before walking
 away), the microwave is switched off before it is opened and closed before it is switched on. Effects are
-applied with the simulator's own physics (``harness.physics``: where a placed object comes to rest,
+applied with the simulator's own physics (``harness.sim.physics``: where a placed object comes to rest,
 slicing, the contact rules of faucets, heat and coffee machines), so every later choice sees the state the
 earlier subgoals leave behind. The subgoal convention is TEACh's: a run of motion becomes
 ``Navigate <object of the next interaction>``.
@@ -21,11 +21,11 @@ from typing import Protocol, TypeVar
 
 import numpy as np
 
-from harness import physics
-from harness.catalog import load_catalog
-from harness.navgrid import reachable_grid
-from harness.simulator import MUST_BE_CLOSED_TO_TURN_ON, MUST_BE_OFF_TO_OPEN, POUR_SINKS
-from harness.world import World, WorldObject
+from harness.sim import physics
+from harness.sim.navgrid import reachable_grid
+from harness.sim.simulator import MUST_BE_CLOSED_TO_TURN_ON, MUST_BE_OFF_TO_OPEN
+from harness.world.catalog import load_catalog
+from harness.world.model import World, WorldObject
 from symbolic.ontology import Ontology
 from symbolic.subgoals import Subgoal, SubgoalAction
 from symbolic.thor import CAMERA_HEIGHT_M, GRID_STEP_M
@@ -377,7 +377,7 @@ class PlanState:
             raise PlanError(f"nothing filled is held to pour into {target_id}")
         target = self.obj(target_id)
         self._emit(SubgoalAction.POUR, target_id)
-        if target.object_type not in POUR_SINKS:
+        if target.object_type not in self.ontology.pour_basins:
             target.liquid = held.liquid
         held.liquid = None
         self._apply_rules()

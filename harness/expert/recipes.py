@@ -14,8 +14,7 @@ impossible (a full receptacle), alternatives are tried in order on forks of the 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Collection, Sequence
 
 from harness.expert.dishes import Dish, Portion, cut_pieces, on_surface_type, serve_dishes
 from harness.expert.planning import ExpertSubgoal, PlanError, PlanState, Sight, first_that_works
@@ -33,14 +32,11 @@ from harness.expert.skills import (
 )
 from harness.tasks.alfred import AlfredTask
 from harness.tasks.teach import TaskInstance, object_classes
-from harness.world import World, WorldObject
+from harness.world.model import World, WorldObject
 from symbolic.ontology import Ontology, load_ontology
+from symbolic.registry import Registry
 
 Task = TaskInstance | AlfredTask
-
-WATER_CONTAINERS = ("Cup", "Mug", "Bowl", "Pot", "Kettle", "WateringCan", "Bottle")
-"""What a person carries water to a plant in, preferred first."""
-
 
 # ---------------------------------------------------------------------------------------------- TEACh
 
@@ -94,7 +90,7 @@ def water_plant(state: PlanState, params: Sequence[str]) -> None:
     if not plants:
         raise PlanError("no house plant")
     plant = state.nearest(plants)
-    rank = {t: i for i, t in enumerate(WATER_CONTAINERS)}
+    rank = {t: i for i, t in enumerate(state.ontology.water_carriers)}
     containers = [
         o
         for o in state.world.objects.values()
@@ -331,20 +327,23 @@ def breakfast(state: PlanState, params: Sequence[str]) -> None:
         serve_dishes(state, dishes, spot)
 
 
-TEACH_RECIPES: dict[str, Callable[[PlanState, Sequence[str]], None]] = {
-    "Water Plant": water_plant,
-    "Coffee": coffee,
-    "Clean All X": clean_all,
-    "Put All X On Y": put_all_on,
-    "Boil X": boil,
-    "Plate Of Toast": plate_of_toast,
-    "N Slices Of X In Y": n_slices,
-    "Put All X In One Y": put_all_in_one,
-    "N Cooked Slices Of X In Y": n_cooked_slices,
-    "Sandwich": sandwich,
-    "Salad": salad,
-    "Breakfast": breakfast,
-}
+TEACH_RECIPES: Registry[Callable[[PlanState, Sequence[str]], None]] = Registry(
+    "TEACh expert recipe",
+    {
+        "Water Plant": water_plant,
+        "Coffee": coffee,
+        "Clean All X": clean_all,
+        "Put All X On Y": put_all_on,
+        "Boil X": boil,
+        "Plate Of Toast": plate_of_toast,
+        "N Slices Of X In Y": n_slices,
+        "Put All X In One Y": put_all_in_one,
+        "N Cooked Slices Of X In Y": n_cooked_slices,
+        "Sandwich": sandwich,
+        "Salad": salad,
+        "Breakfast": breakfast,
+    },
+)
 """A recipe per TEACh benchmark task, by task name."""
 
 
@@ -516,25 +515,19 @@ def alfred_movable(state: PlanState, task: AlfredTask) -> None:
     first_that_works(state, state.ranked(movables, lambda m: -8.0 * state.is_in(thing, m.object_id)), stack)
 
 
-ALFRED_RECIPES: dict[str, Callable[[PlanState, AlfredTask], None]] = {
-    "pick_and_place_simple": alfred_pick_and_place,
-    "pick_two_obj_and_place": alfred_pick_two,
-    "look_at_obj_in_light": alfred_look_at,
-    "pick_clean_then_place_in_recep": alfred_clean,
-    "pick_heat_then_place_in_recep": alfred_heat,
-    "pick_cool_then_place_in_recep": alfred_cool,
-    "pick_and_place_with_movable_recep": alfred_movable,
-}
+ALFRED_RECIPES: Registry[Callable[[PlanState, AlfredTask], None]] = Registry(
+    "ALFRED expert recipe",
+    {
+        "pick_and_place_simple": alfred_pick_and_place,
+        "pick_two_obj_and_place": alfred_pick_two,
+        "look_at_obj_in_light": alfred_look_at,
+        "pick_clean_then_place_in_recep": alfred_clean,
+        "pick_heat_then_place_in_recep": alfred_heat,
+        "pick_cool_then_place_in_recep": alfred_cool,
+        "pick_and_place_with_movable_recep": alfred_movable,
+    },
+)
 """A recipe per ALFRED task type."""
-
-
-def _recipe(
-    registry: Mapping[str, Callable[[PlanState, Any], None]], name: str
-) -> Callable[[PlanState, Any], None]:
-    try:
-        return registry[name]
-    except KeyError:
-        raise KeyError(f"no expert recipe for {name!r}; known: {sorted(registry)}") from None
 
 
 def plan_task(
@@ -553,7 +546,7 @@ def plan_task(
     """
     state = PlanState(world, ontology or load_ontology(), avoid, sight)
     if isinstance(task, TaskInstance):
-        _recipe(TEACH_RECIPES, task.task_name)(state, task.params)
+        TEACH_RECIPES.get(task.task_name)(state, task.params)
     else:
-        _recipe(ALFRED_RECIPES, task.task_type)(state, task)
+        ALFRED_RECIPES.get(task.task_type)(state, task)
     return state.finish()

@@ -3,7 +3,7 @@
 TEACh: for each of the 12 benchmark tasks, ``seeds`` (world, task) pairs drawn the way the episode
 generator draws them (``harness.episodes.sample.sample_task_world``: parameters from the task's parameter
 space, a room that can hold them, a generated world); success is TEACh's goal check. ALFRED: the
-valid_seen trajectories' worlds and tasks (``harness.alfred_world``, needs the shared data directory);
+valid_seen trajectories' worlds and tasks (``harness.world.alfred``, needs the shared data directory);
 success is ALFRED's goal check. The bar is 95 % per task. Results are grouped per task with a histogram of
 failure reasons (object ids reduced to types), trajectory lengths and the expert's time.
 
@@ -24,7 +24,7 @@ from harness.episodes.sample import TaskSamplingError, sample_task_world
 from harness.expert.expert import ExpertConfig, ExpertTrajectory, run_expert
 from harness.expert.recipes import Task
 from harness.tasks.teach import BENCHMARK_TASKS
-from harness.world import World
+from harness.world.model import World
 from symbolic.data_dir import default_data_dir
 from symbolic.ontology import load_ontology
 
@@ -86,7 +86,7 @@ def alfred_episodes(
     split: str = "valid_seen", limit: int | None = None
 ) -> Iterator[tuple[str, str, World, Task]]:
     """(task type, task_id, world, task) of an ALFRED split (needs the shared data directory)."""
-    from harness.alfred_world import alfred_task_world_pairs
+    from harness.world.alfred.build import alfred_task_world_pairs
 
     for traj, world, task in alfred_task_world_pairs(split, limit):
         yield task.task_type, str(traj["task_id"]), world, task

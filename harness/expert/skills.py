@@ -16,7 +16,7 @@ import math
 from collections.abc import Callable, Collection, Mapping, Sequence
 
 from harness.expert.planning import PlanError, PlanState, first_that_works
-from harness.world import WorldObject
+from harness.world.model import WorldObject
 
 DIRTY_COST = 10.0
 """Extra travel-equivalent cost of an instance that must be washed first (sink trip and faucet)."""

@@ -13,7 +13,7 @@ target, movable receptacle, and whether the object is to be sliced). Each task t
 - heated, cooled and cleaned are the world's ``is_heated``, ``is_cooled`` and ``is_cleaned`` (ALFRED's
   env keeps sets of objects heated in a microwave, chilled in the fridge and washed in the sink);
 - "the lamp is visible" is approximated by the lamp being within AI2-THOR's visibility distance (1.5 m
-  from the agent's vertical axis, ``harness.reach``); the field of view is not checked.
+  from the agent's vertical axis, ``harness.sim.reach``); the field of view is not checked.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from harness.tasks.progress import GoalReport, SubgoalStatus, human_failures
-from harness.world import World, WorldObject
+from harness.world.model import World, WorldObject
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import INTERACTION_DISTANCE_M
 
@@ -146,7 +146,7 @@ class _Scene:
 
     def reach_distance(self, obj: WorldObject) -> float:
         """Metres from the agent's vertical axis to the object's box, as AI2-THOR measures visibility
-        (``harness.reach``: a cylinder about the agent, not a sphere about the camera)."""
+        (``harness.sim.reach``: a cylinder about the agent, not a sphere about the camera)."""
         agent = self.world.agent
         (x0, _, z0), (x1, _, z1) = obj.min_corner, obj.max_corner
         return math.hypot(max(x0 - agent.x, agent.x - x1, 0.0), max(z0 - agent.z, agent.z - z1, 0.0))

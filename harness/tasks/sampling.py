@@ -32,8 +32,9 @@ from harness.tasks.teach import (
     make_task_instance,
 )
 from harness.tasks.teach_definitions import BoundSubtask, ObjectComponent
-from harness.world import World
+from harness.world.model import World
 from symbolic.ontology import Ontology, load_ontology
+from symbolic.registry import Registry
 
 Params = tuple[str, ...]
 
@@ -97,8 +98,6 @@ AI2-THOR ``isCooked`` flips while it sits in a container of water, and among who
 cookable in AI2-THOR's object table (an Egg is not; cracked, it is an EggCracked, which TEACh poaches in
 its "Poach Egg" task)."""
 _WASHABLE = ("Mug", "Cup", "Plate", "Bowl", "Pot", "Pan")
-_WATER_CONTAINERS = ("Cup", "Mug", "Bowl", "Pot", "Kettle", "WateringCan", "Bottle")
-"""Containers the follower may carry water in to a plant, preferred first."""
 
 _BREAKFAST_MENUS: tuple[dict[str, str], ...] = (
     {"#0": "1", "#1": "1"},
@@ -142,32 +141,35 @@ def _salad_params() -> list[Params]:
     return [tuple(str(n) for n in c) for c in itertools.product(range(3), repeat=3) if 2 <= sum(c) <= 4]
 
 
-_PARAMETER_SPACES: dict[str, Callable[[], list[Params]]] = {
-    "Water Plant": lambda: [()],
-    "Coffee": lambda: [()],
-    "Plate Of Toast": lambda: [()],
-    "Clean All X": lambda: [(x,) for x in _WASHABLE],
-    "Boil X": lambda: [(x,) for x in _BOILABLE],
-    "Put All X On Y": lambda: [(x, _in_or_on(y), y) for x in _HANDHELD_THINGS for y in _PLACES_ON],
-    "Put All X In One Y": lambda: [(x, _in_or_on(y), y) for x in _HANDHELD_THINGS for y in _PLACES_IN_ONE],
-    "N Slices Of X In Y": lambda: [
-        (str(n), x, _in_or_on(y), y) for n in (1, 2, 3) for x in _SLICEABLE_FOOD for y in _DISHES
-    ],
-    "N Cooked Slices Of X In Y": lambda: [
-        (str(n), "Potato", _in_or_on(y), y) for n in (1, 2, 3) for y in _DISHES
-    ],
-    "Sandwich": _sandwich_params,
-    "Salad": _salad_params,
-    "Breakfast": _breakfast_params,
-}
+_PARAMETER_SPACES: Registry[Callable[[], list[Params]]] = Registry(
+    "TEACh task",
+    {
+        "Water Plant": lambda: [()],
+        "Coffee": lambda: [()],
+        "Plate Of Toast": lambda: [()],
+        "Clean All X": lambda: [(x,) for x in _WASHABLE],
+        "Boil X": lambda: [(x,) for x in _BOILABLE],
+        "Put All X On Y": lambda: [(x, _in_or_on(y), y) for x in _HANDHELD_THINGS for y in _PLACES_ON],
+        "Put All X In One Y": lambda: [
+            (x, _in_or_on(y), y) for x in _HANDHELD_THINGS for y in _PLACES_IN_ONE
+        ],
+        "N Slices Of X In Y": lambda: [
+            (str(n), x, _in_or_on(y), y) for n in (1, 2, 3) for x in _SLICEABLE_FOOD for y in _DISHES
+        ],
+        "N Cooked Slices Of X In Y": lambda: [
+            (str(n), "Potato", _in_or_on(y), y) for n in (1, 2, 3) for y in _DISHES
+        ],
+        "Sandwich": _sandwich_params,
+        "Salad": _salad_params,
+        "Breakfast": _breakfast_params,
+    },
+    names=BENCHMARK_TASKS,
+)
 
 
 def parameter_space(task_name: str) -> list[Params]:
     """Every parameter tuple we pose for a benchmark task; unknown names fail with the known ones."""
-    try:
-        return _PARAMETER_SPACES[task_name]()
-    except KeyError:
-        raise KeyError(f"no parameter space for task {task_name!r}; known: {list(BENCHMARK_TASKS)}") from None
+    return _PARAMETER_SPACES.get(task_name)()
 
 
 @dataclass(frozen=True)
@@ -193,7 +195,7 @@ def _process_needs(prop: str, value: object, target: str, ontology: Ontology) ->
     if prop == "simbotIsFilledWithCoffee" and value == 1:
         return [Need(("CoffeeMachine",), 1, True)]
     if prop == "isFilledWithLiquid" and value == 1:
-        carriers = tuple(t for t in _WATER_CONTAINERS if t in ontology and ontology.get(t).pickupable)
+        carriers = tuple(t for t in ontology.water_carriers if t in ontology and ontology.get(t).pickupable)
         return [Need(carriers, 1, True), *water]
     return []
 

@@ -30,7 +30,7 @@ from harness.tasks.teach_definitions import (
     load_task_definitions,
     make_task_instance,
 )
-from harness.world import World
+from harness.world.model import World
 from symbolic.ontology import Ontology, UnknownObjectType, load_ontology
 
 __all__ = [

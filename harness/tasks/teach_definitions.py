@@ -92,24 +92,48 @@ class TaskDefinition:
     """TEACh's ``comments_task_params``: what each ``#k`` means (Breakfast, Sandwich, Salad)."""
 
 
+_TEACH_KEYS = {
+    "determiner": "determiner",
+    "task_name": "task_name",
+    "task_params": "task_params",
+    "primary_condition": "primary_condition",
+    "instance_shareable": "instance_shareable",
+    "conditions": "conditions",
+    "condition_failure_descs": "condition_failure_descs",
+}
+"""A component's fields -> their keys in TEACh's ``task_definitions/*.json``."""
+_COMPACT_KEYS = {
+    **_TEACH_KEYS,
+    "determiner": "det",
+    "task_name": "task",
+    "task_params": "params",
+    "primary_condition": "primary",
+    "instance_shareable": "shareable",
+    "condition_failure_descs": "failure",
+}
+"""... and in our compact restatement ``teach_tasks.json``."""
+
+
+def _component(comp: Mapping[str, Any], keys: Mapping[str, str]) -> Component:
+    """A sub-task component (it names a task) or an object component, read with either file's keys."""
+    if keys["task_name"] in comp:
+        return SubtaskComponent(
+            determiner=comp[keys["determiner"]],
+            task_name=comp[keys["task_name"]],
+            task_params=tuple(comp[keys["task_params"]]),
+        )
+    return ObjectComponent(
+        determiner=comp[keys["determiner"]],
+        primary_condition=comp[keys["primary_condition"]],
+        instance_shareable=comp[keys["instance_shareable"]],
+        conditions=dict(comp[keys["conditions"]]),
+        condition_failure_descs=dict(comp[keys["condition_failure_descs"]]),
+    )
+
+
 def definition_from_teach(data: Mapping[str, Any]) -> TaskDefinition:
     """Parse one of TEACh's ``task_definitions/*.json`` files."""
-    components: dict[str, Component] = {}
-    for key, comp in data["components"].items():
-        if "task_name" in comp:
-            components[key] = SubtaskComponent(
-                determiner=comp["determiner"],
-                task_name=comp["task_name"],
-                task_params=tuple(comp["task_params"]),
-            )
-        else:
-            components[key] = ObjectComponent(
-                determiner=comp["determiner"],
-                primary_condition=comp["primary_condition"],
-                instance_shareable=comp["instance_shareable"],
-                conditions=dict(comp["conditions"]),
-                condition_failure_descs=dict(comp["condition_failure_descs"]),
-            )
+    components = {key: _component(comp, _TEACH_KEYS) for key, comp in data["components"].items()}
     relations = []
     for rel in data["relations"]:
         if len(rel["tail_entity_list"]) != 1:
@@ -138,20 +162,7 @@ def definition_from_teach(data: Mapping[str, Any]) -> TaskDefinition:
 
 def definition_from_compact(data: Mapping[str, Any]) -> TaskDefinition:
     """Parse one task of our compact restatement ``teach_tasks.json`` (its ``format`` field says the keys)."""
-    components: dict[str, Component] = {}
-    for key, comp in data["components"].items():
-        if "task" in comp:
-            components[key] = SubtaskComponent(
-                determiner=comp["det"], task_name=comp["task"], task_params=tuple(comp["params"])
-            )
-        else:
-            components[key] = ObjectComponent(
-                determiner=comp["det"],
-                primary_condition=comp["primary"],
-                instance_shareable=comp["shareable"],
-                conditions=dict(comp["conditions"]),
-                condition_failure_descs=dict(comp["failure"]),
-            )
+    components = {key: _component(comp, _COMPACT_KEYS) for key, comp in data["components"].items()}
     relations = tuple(
         Relation(
             property=rel["property"],

@@ -25,10 +25,10 @@ class AugmentConfig:
 
     HLSM does not print its σ values. Its frames come from 108 scenes whose furniture never changes colour,
     so it recolours hard to make new scenes. Our harness already varies every world, and a box's colour is
-    what tells its type (``harness.palette`` keeps room-mates, and as far as it can all types, a unit apart:
-    0.075 in channel shares), so the defaults shift a class's colour by about half that: enough to stop the
-    network keying on exact shades, too little to turn one type into another. Frames from AI2-THOR, where
-    shape tells the type, can take HLSM-strength values (σa 0.15, σm 0.2)."""
+    what tells its type (``harness.render.palette`` keeps room-mates, and as far as it can all types, a
+    unit apart: 0.075 in channel shares), so the defaults shift a class's colour by about half that: enough
+    to stop the network keying on exact shades, too little to turn one type into another. Frames from
+    AI2-THOR, where shape tells the type, can take HLSM-strength values (σa 0.15, σm 0.2)."""
 
     sigma_add: float = 0.04  # σa: std of the per-class additive colour offset
     sigma_noise: float = 0.02  # σg: std of the per-pixel additive noise

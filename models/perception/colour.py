@@ -1,6 +1,6 @@
 """A per-pixel colour classifier, a second expert beside the segmentation U-Net (product of experts).
 
-Our objects are boxes, so the harness gives every type its own colour (``harness.palette``: distinct in
+Our objects are boxes, so the harness gives every type its own colour (``harness.render.palette``: distinct in
 chromaticity from every room-mate and nearly so from every other type); colour carries what shape carries in
 AI2-THOR. The U-Net of HLSM A.3 normalises every block per image (instance norm), which keeps contrasts
 within a frame but blurs the absolute colour a class is recognised by. Measured on 300 valid_unseen frames

@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from models.planner import DEFAULT_CHECKPOINT_DIR
-from models.planner.config import RECIPES, GenerationConfig, get_recipe
+from models.planner.config import RECIPES, GenerationConfig
 from symbolic.cli_args import Parser, existing_dir, existing_path, int_at_least, plain, positive_float
 from symbolic.data_dir import REPO_ROOT, default_data_dir
 from symbolic.ontology import load_ontology
@@ -52,7 +52,7 @@ def _train(args: argparse.Namespace) -> int:
     from models.planner.data import DatasetFiles
     from models.planner.train import train
 
-    recipe = get_recipe(args.recipe)
+    recipe = RECIPES.get(args.recipe)
     overrides = {
         name: value
         for name, value in (
@@ -249,6 +249,15 @@ def _predict(args: argparse.Namespace) -> int:
     return 0
 
 
+def _decoding_options(command: argparse.ArgumentParser) -> None:
+    """How a checkpoint decodes, the same for ``evaluate`` and ``predict``: beams, Navigate bias, engine."""
+    command.add_argument("--beams", type=int_at_least(1), default=GenerationConfig.num_beams)
+    command.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
+    command.add_argument(
+        "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = Parser(prog="python -m models.planner", description=plain(__doc__))
     commands = parser.add_subparsers(dest="command", required=True)
@@ -315,17 +324,13 @@ def _parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--out", type=Path, default=None, help="write the metrics here (JSON)")
     evaluate.add_argument("--predictions", type=Path, default=None, help="folder for per-example predictions")
     evaluate.add_argument("--batch-size", type=positive, default=32)
-    evaluate.add_argument("--beams", type=positive, default=GenerationConfig.num_beams)
     evaluate.add_argument(
         "--threads", type=positive, default=1, help="torch threads (1 is fastest on a busy machine)"
     )
     evaluate.add_argument(
         "--limit", type=count, default=0, help="evaluate the first N examples of each set (0: all)"
     )
-    evaluate.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
-    evaluate.add_argument(
-        "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
-    )
+    _decoding_options(evaluate)
     evaluate.set_defaults(run=_evaluate)
 
     calibrate = commands.add_parser(
@@ -346,11 +351,7 @@ def _parser() -> argparse.ArgumentParser:
     predict.add_argument("--turn", type=_turn, action="append", default=[], help="'Commander: ...' (repeat)")
     predict.add_argument("--instruction", help="an ALFRED-style instruction")
     predict.add_argument("--history", help="history subgoals, e.g. 'Pickup Mug, Place CoffeeMachine'")
-    predict.add_argument("--beams", type=positive, default=GenerationConfig.num_beams)
-    predict.add_argument("--navigate-bias", type=float, help="override the checkpoint's calibrated bias")
-    predict.add_argument(
-        "--engine", choices=["auto", "torch", "onnx"], default=GenerationConfig.engine, help="what decodes"
-    )
+    _decoding_options(predict)
     predict.set_defaults(run=_predict)
 
     average = commands.add_parser(

@@ -9,10 +9,10 @@ hours the models are small and the learning rates those of training from (near) 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
-from typing import Literal
+from typing import Literal, get_args
+
+from symbolic.registry import Registry
 
 BackboneKind = Literal["bart-scratch", "minilm-encdec"]
 DecodeEngine = Literal["auto", "torch", "onnx"]
@@ -91,11 +91,8 @@ class Recipe:
     minilm_decoder: MiniLMDecoderArchitecture = field(default_factory=MiniLMDecoderArchitecture)
 
 
-class UnknownRecipe(LookupError):
-    """No recipe of this name; the message lists the known ones."""
-
-
-RECIPES: Mapping[str, Recipe] = MappingProxyType(
+RECIPES: Registry[Recipe] = Registry(
+    "planner recipe",
     {
         "bart-scratch": Recipe(name="bart-scratch", train=TrainConfig()),
         # A pretrained encoder wants a gentler learning rate; it is 2-3x slower per step, so fewer steps
@@ -111,13 +108,7 @@ RECIPES: Mapping[str, Recipe] = MappingProxyType(
                 eval_every=550,
             ),
         ),
-    }
+    },
+    names=get_args(BackboneKind),
 )
-
-
-def get_recipe(name: str) -> Recipe:
-    """The recipe registered as ``name``; UnknownRecipe lists the known names."""
-    recipe = RECIPES.get(name)
-    if recipe is None:
-        raise UnknownRecipe(f"no planner recipe named {name!r}; known recipes: {', '.join(sorted(RECIPES))}")
-    return recipe
+"""The backbones ``train --recipe`` accepts, each with the training defaults that suit it."""

@@ -10,15 +10,18 @@ from typing import Any
 
 from fastapi.testclient import TestClient
 
-from agent.geometry import Pose
+from agent.geometry import Camera, Pose
 from agent.perception import Observation
-from harness.camera import CameraSpec
-from harness.client import FrameEncoding, observation_parts, pose_of
-from harness.physics import resting_center
-from harness.render import Frame
-from harness.simulator import ActionResult, Simulator
-from harness.world import AgentState, World, WorldObject
-from harness.worldgen import generate_kitchen
+from agent.planning import make_planner
+from agent.session import AgentSession, StepDecision
+from harness.drive.client import FrameEncoding, observation_parts, pose_of
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Frame
+from harness.sim.physics import resting_center
+from harness.sim.simulator import ActionResult, Simulator
+from harness.world.model import AgentState, World, WorldObject
+from harness.world.procedural.generate import generate_kitchen
+from symbolic.ontology import load_ontology
 from symbolic.thor import OBJECT_ACTIONS
 
 CAMERA = {"width": 300, "height": 300, "hfov_deg": 90.0}
@@ -71,6 +74,30 @@ def observation(frame: Frame, agent: AgentState | None) -> Observation:
 
 def execute(sim: Simulator, action: str, x: float | None, y: float | None) -> ActionResult:
     return sim.step(action, x, y) if action in OBJECT_ACTIONS else sim.step(action)
+
+
+def oracle_session(subgoals: str, **options: Any) -> AgentSession:
+    """A TfD session (unless ``options`` say otherwise) with oracle perception, the FMM navigator and the
+    oracle planner on ``subgoals``, seeing ``CAMERA``'s frames."""
+    ontology = load_ontology()
+    settings: dict[str, Any] = {"mode": "tfd", "perception": "oracle", "navigator": "fmm", **options}
+    camera = Camera(CAMERA["width"], CAMERA["height"], CAMERA["hfov_deg"])
+    planner = make_planner("oracle", ontology)
+    return AgentSession.start(
+        "s", camera=camera, planner=planner, given_subgoals=subgoals, ontology=ontology, **settings
+    )
+
+
+def step_through(session: AgentSession, sim: Simulator, steps: int) -> list[StepDecision]:
+    """The session's decisions on up to ``steps`` frames of the simulator (frame k with noise seed k), each
+    action executed, until one says the episode is done."""
+    decisions = []
+    for step in range(steps):
+        decisions.append(session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent)))
+        if decisions[-1].done:
+            break
+        execute(sim, decisions[-1].action, decisions[-1].x, decisions[-1].y)
+    return decisions
 
 
 @dataclass

@@ -15,9 +15,10 @@ from agent.geometry import Camera
 from agent.perception import OraclePerception, confident_depth, make_perception
 from agent.perception.base import ObservationError
 from agent.perception.decode import decode_depth, decode_instances, decode_observation, decode_rgb
-from harness.camera import CameraSpec
-from harness.render import Renderer
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
+from symbolic.registry import UnknownName
 
 W, H = 64, 48
 CAMERA = Camera(W, H, 90.0)
@@ -335,7 +336,7 @@ def test_oracle_needs_depth_and_segmentation(frame, missing: str) -> None:
 
 
 def test_unknown_perception_lists_known_ones() -> None:
-    with pytest.raises(KeyError, match="oracle"):
+    with pytest.raises(UnknownName, match="oracle"):
         make_perception("lidar", CAMERA)
 
 

@@ -22,12 +22,13 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
-from harness.camera import CameraSpec
 from harness.commander.tools import CommanderTools
-from harness.physics import resting_center
-from harness.runner import DEFAULT_CAMERA, generated_episode
-from harness.world import World, WorldObject
-from harness.worldgen import generate_kitchen, generate_living_room
+from harness.drive.generated import generated_episode
+from harness.drive.runner import DEFAULT_CAMERA
+from harness.render.camera import CameraSpec
+from harness.sim.physics import resting_center
+from harness.world.model import World, WorldObject
+from harness.world.procedural.generate import generate_kitchen, generate_living_room
 from symbolic.commands import ClickHint, CommandItem, StandHint, format_command
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -264,15 +265,22 @@ def test_open_microwave_then_pickup_plate_takes_the_plate_in_there(client: TestC
     assert run.sim.world.agent.held == inside.object_id
 
 
+def _near_and_far(world: World, dish: str, near_dirty: bool) -> tuple[WorldObject, WorldObject]:
+    """Two dishes of a kind, on the counter nearest the agent and on the farthest, one of them dirty (the
+    near one when ``near_dirty``): (near, far)."""
+    near, far = world.of_type(dish)[:2]
+    here = (world.agent.x, 0.9, world.agent.z)
+    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
+    put(world, near, counters[0])
+    put(world, far, counters[-1])
+    near.is_dirty, far.is_dirty = near_dirty, not near_dirty
+    return near, far
+
+
 def test_a_bowl_that_looks_dirty_is_passed_over_for_a_clean_one_to_serve_in(client: TestClient) -> None:
     """Serving needs a clean bowl: a stained one in view is taken only if a look around finds no other."""
     world = generate_kitchen(KITCHEN_SEED, require=(("Bowl", 2),))
-    dirty, clean = world.of_type("Bowl")[:2]
-    here = (world.agent.x, 0.9, world.agent.z)
-    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
-    put(world, dirty, counters[0])
-    put(world, clean, counters[-1])
-    dirty.is_dirty, clean.is_dirty = True, False
+    dirty, clean = _near_and_far(world, "Bowl", near_dirty=True)
     before = {b.object_id: b.center for b in (dirty, clean)}
 
     plan = "Navigate Bowl, Pickup Bowl, Navigate CounterTop, Place CounterTop"
@@ -341,12 +349,7 @@ def test_the_plate_washed_is_the_dirty_one_not_a_clean_one_nearer(client: TestCl
     """ "Clean all the Plates": rinsing the clean plate at hand would leave the dirty one dirty, so a plate
     that looks clean is passed over while a look around may find a stained one."""
     world = generate_kitchen(KITCHEN_SEED, require=(("Plate", 2),))
-    clean, dirty = world.of_type("Plate")[:2]
-    here = (world.agent.x, 0.9, world.agent.z)
-    counters = sorted(world.of_type("CounterTop"), key=lambda c: math.dist(c.center, here))
-    put(world, clean, counters[0])
-    put(world, dirty, counters[-1])
-    clean.is_dirty, dirty.is_dirty = False, True
+    clean, dirty = _near_and_far(world, "Plate", near_dirty=False)
 
     plan = (
         "Navigate Plate, Pickup Plate, Navigate SinkBasin, Place SinkBasin, ToggleOn Faucet, ToggleOff Faucet"

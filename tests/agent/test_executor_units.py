@@ -17,24 +17,33 @@ from executor_support import (
     simulator,
 )
 
-from agent.executor import ClickConfig, SuccessConfig, digest, history_poses, infer_success, interior_pixel
-from agent.executor.clicks import choose_click, pixel_distances, usable_pixels, visible_instances
+from agent.executor import (
+    ClickConfig,
+    ExecutorConfig,
+    SearchConfig,
+    SuccessConfig,
+    digest,
+    history_poses,
+    infer_success,
+    interior_pixel,
+)
+from agent.executor.candidates import ContainerCandidate, opening_order
+from agent.executor.clicks import ClickFrame, choose_click, pixel_distances, usable_pixels, visible_instances
 from agent.executor.looks import StainConfig, looks, stained_share
 from agent.executor.mapview import IgnoredSpot, SessionMapView
 from agent.executor.replay import holding_before
-from agent.executor.search import ContainerCandidate, opening_order
 from agent.executor.state import Attempt, FailedClick
 from agent.executor.success import instance_colour
 from agent.geometry import Camera, Pose
 from agent.mapping import SemanticMap
 from agent.perception import Observation, Percept
 from agent.session import FrameAlignment
-from harness.simulator import Simulator
-from harness.world import World, WorldObject
-from harness.worldgen import generate_kitchen
+from harness.sim.simulator import Simulator
+from harness.world.model import World, WorldObject
+from harness.world.procedural.generate import generate_kitchen
 
 if TYPE_CHECKING:
-    from agent.executor import Decision, Executor
+    from agent.executor import Decision, Executor, StepInputs
     from symbolic.subgoals import Subgoal
 
 CONFIG = ClickConfig()
@@ -87,12 +96,9 @@ def test_rendered_objects_are_clicked_inside_their_mask_near_the_centroid_and_wi
         usable = usable_pixels(distances, False, CONFIG)
         for object_type in sorted(set(frame.legend.values()) - {"Floor", "Wall", "Ceiling"}):
             mask = np.isin(obs.instances, [i for i, t in frame.legend.items() if t == object_type])
-            for instance in visible_instances(
-                mask, obs.instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
-            ):
-                click = choose_click(
-                    instance, obs.instances, distances, usable, obs.depth, camera, obs.pose, "object", CONFIG
-                )
+            frame_seen = ClickFrame(obs.instances, distances, usable, obs.depth, camera, obs.pose)
+            for instance in visible_instances(mask, frame_seen, CONFIG):
+                click = choose_click(instance, frame_seen, "object", CONFIG)
                 if click is None:
                     assert not instance.clickable
                     continue
@@ -136,13 +142,10 @@ def test_a_place_click_lands_on_the_top_surface_of_a_counter() -> None:
     distances = pixel_distances(obs.depth, camera)
     usable = usable_pixels(distances, False, CONFIG)
     counter_id = world.instance_ids[counter.object_id]
-    (seen,) = visible_instances(
-        obs.instances == counter_id, obs.instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
-    )
+    frame = ClickFrame(obs.instances, distances, usable, obs.depth, camera, obs.pose)
+    (seen,) = visible_instances(obs.instances == counter_id, frame, CONFIG)
 
-    click = choose_click(
-        seen, obs.instances, distances, usable, obs.depth, camera, obs.pose, "surface", CONFIG
-    )
+    click = choose_click(seen, frame, "surface", CONFIG)
 
     assert click is not None and click.instance_id == counter_id
     assert abs(click.point[1] - counter.top) < 0.02, (click.point, counter.top)
@@ -164,24 +167,11 @@ def test_a_place_click_with_estimated_depth_ignores_a_few_pixels_that_read_too_h
     depth[rows[bled], cols[bled]] *= 0.8  # nearer along a downward ray: higher
     distances = pixel_distances(depth, camera)
     usable = usable_pixels(distances, False, CONFIG)
-    (seen,) = visible_instances(
-        obs.instances == counter_id, obs.instances, distances, usable, depth, camera, obs.pose, CONFIG
-    )
+    frame = ClickFrame(obs.instances, distances, usable, depth, camera, obs.pose)
+    (seen,) = visible_instances(obs.instances == counter_id, frame, CONFIG)
 
     fooled, robust = (
-        choose_click(
-            seen,
-            obs.instances,
-            distances,
-            usable,
-            depth,
-            camera,
-            obs.pose,
-            "surface",
-            CONFIG,
-            exact_depth=exact,
-        )
-        for exact in (True, False)
+        choose_click(seen, frame, "surface", CONFIG, exact_depth=exact) for exact in (True, False)
     )
 
     assert fooled is not None and fooled.point[1] > counter.top + 0.05  # the old rule clicks a bled pixel
@@ -202,7 +192,7 @@ def test_specks_of_a_type_without_an_instance_are_never_clicked() -> None:
     usable = usable_pixels(distances, False, CONFIG)
 
     seen = visible_instances(
-        counter_pixels, instances, distances, usable, obs.depth, camera, obs.pose, CONFIG
+        counter_pixels, ClickFrame(instances, distances, usable, obs.depth, camera, obs.pose), CONFIG
     )
 
     assert seen == []
@@ -416,7 +406,8 @@ def test_a_frame_alignment_maps_the_world_pose_onto_the_dead_reckoned_one_and_ke
 
 
 def test_dirty_dishes_look_dirty_and_clean_ones_clean() -> None:
-    """The same mugs, bowls and plates rendered clean and then dirty (harness.appearance's brown stains)."""
+    """The same mugs, bowls and plates rendered clean and then dirty (``harness.render.appearance``'s
+    brown stains)."""
     world = kitchen()
     sim = simulator(world)
     dishes = [o for o in world.objects.values() if o.object_type in ("Mug", "Bowl", "Plate", "Cup")]
@@ -439,9 +430,9 @@ def test_dirty_dishes_look_dirty_and_clean_ones_clean() -> None:
 def test_while_holding_only_the_held_types_near_pixels_are_unusable() -> None:
     # A bowl held before the eye and a microwave 0.5 m ahead: the bowl's pixels are not clickable things,
     # the microwave's are (the bowl is to go into it), though both are nearer than 0.7 m.
-    from harness.camera import CameraSpec
-    from harness.render import Renderer
-    from harness.world import AgentState, Room, World, make_object_id
+    from harness.render.camera import CameraSpec
+    from harness.render.renderer import Renderer
+    from harness.world.model import AgentState, Room, World, make_object_id
 
     bowl = WorldObject(make_object_id("Bowl", (1.0, 0.05, 1.0)), "Bowl", (1.0, 0.05, 1.0), (0.15, 0.07, 0.15))
     oven = WorldObject(
@@ -506,9 +497,9 @@ def test_the_hand_is_read_as_holding_a_plate_when_a_knife_was_wanted() -> None:
     # before the eye, which the executor reads before believing the plan's knife is in hand.
     from agent.classes import load_class_index
     from agent.executor.clicks import held_type_in_view
-    from harness.camera import CameraSpec
-    from harness.render import Renderer
-    from harness.world import AgentState, Room, World, make_object_id
+    from harness.render.camera import CameraSpec
+    from harness.render.renderer import Renderer
+    from harness.world.model import AgentState, Room, World, make_object_id
     from symbolic.ontology import load_ontology
 
     onto, classes = load_ontology(), load_class_index()
@@ -564,6 +555,21 @@ def _first_view(
     )
 
 
+def _inputs(
+    executor: Executor,
+    step: int,
+    pose: Pose,
+    view: SessionMapView,
+    obs: Observation,
+    plan: list[Subgoal],
+    success: bool | None = None,
+) -> StepInputs:
+    """A step's inputs as a session builds them: the previous action judged (``success``) first."""
+    from agent.executor import StepInputs
+
+    return StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), executor.judge(success, plan))
+
+
 def test_a_remembered_spot_beyond_the_maps_edge_is_walked_to_at_the_nearest_mapped_cell() -> None:
     # Learned depth once put a container 4 m past the wall; walking back to it raised IndexError (a 500).
     camera, pose = Camera(300, 300, 90.0), Pose(1.0, 1.0, 0.0, 30.0)
@@ -601,7 +607,7 @@ def _two_side_by_side_on_a_counter(
 ) -> tuple[World, WorldObject, WorldObject, WorldObject]:
     """A kitchen with the agent at its first counter and two ``kind``s on it ``ahead_m`` before the agent,
     0.5 m apart side by side: (world, counter, the one on the left, the one on the right)."""
-    from harness.physics import move_with_contents, resting_center
+    from harness.sim.physics import move_with_contents, resting_center
 
     world = generate_kitchen(3, require=((kind, 2),))
     counter = world.of_type("CounterTop")[0]
@@ -653,7 +659,7 @@ def _decide_pickup_of_put_down(
 ) -> Decision:
     """The executor's first decision for "Pickup <obj>" when the agent itself put an ``obj`` into
     ``receptacle``, clicking at ``where`` (its id then ``instance_id``), seeing ``percept``."""
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -671,11 +677,8 @@ def _decide_pickup_of_put_down(
     if instance_id is not None:
         executor.state.memory.instance[obj] = instance_id
     executor.state.memory.where[obj] = where  # where the Place click put it
-    return executor.decide(
-        StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None),
-        parse_subgoals(f"Pickup {obj}", onto),
-        0,
-    )
+    plan = parse_subgoals(f"Pickup {obj}", onto)
+    return executor.decide(_inputs(executor, 0, pose, view, obs, plan), plan, 0)
 
 
 def test_with_learned_ids_the_x_put_down_is_found_where_it_was_put_not_by_its_old_id() -> None:
@@ -731,7 +734,7 @@ def test_with_learned_ids_a_bowl_put_into_a_sink_by_its_rim_is_picked_up_where_i
     # A Place click on a sink's rim puts the bowl in the basin's free middle (the harness, like AI2-THOR,
     # moves it to room on the receptacle), half a metre from the spot the agent remembers: in generated
     # valid_unseen game 0 the agent then looked elsewhere for a bowl until the step limit.
-    from harness.physics import move_with_contents, resting_center
+    from harness.sim.physics import move_with_contents, resting_center
 
     world = generate_kitchen(seed, require=(("Bowl", 1),))
     sink, bowl = world.of_type("SinkBasin")[0], world.of_type("Bowl")[0]
@@ -777,12 +780,12 @@ def _decide_pickup_with_tomatoes_ignored(
     executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
     for tomato in tomatoes:
         x, _, z = tomato.center
-        executor.state.ignored.append(
+        executor.state.detections.ignored.append(
             IgnoredSpot("Tomato", x, z, 0.2, "not observed", subgoal_index=None, until_seen=True)
         )
     plan = list(parse_subgoals("Pickup Tomato", onto))
     (decision,) = _decide_while_nothing_changes(executor, obs, percept, plan, steps=1)
-    return decision, executor.state.ignored
+    return decision, executor.state.detections.ignored
 
 
 def test_a_tomato_ruled_out_for_not_being_seen_is_taken_when_true_segmentation_shows_it_in_reach() -> None:
@@ -808,7 +811,7 @@ def test_a_tomato_ruled_out_for_not_being_seen_is_taken_when_true_segmentation_s
 def _slice_in_a_toaster() -> tuple[Simulator, WorldObject, WorldObject, Observation]:
     """A kitchen with a bread slice standing in a toaster and the agent at the toaster looking at it:
     (simulator, toaster, slice, what the agent sees)."""
-    from harness.physics import move_with_contents, resting_center, slice_object
+    from harness.sim.physics import move_with_contents, resting_center, slice_object
     from symbolic.ontology import load_ontology
 
     world = generate_kitchen(3, require=(("Toaster", 1), ("Bread", 1)))
@@ -833,7 +836,7 @@ def _decide_for_toast(
 ) -> Decision:
     """The executor's first decision for ``subgoals`` when the agent itself put the bread slice into the
     toaster, its Place click at ``where``, seeing ``percept``."""
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -850,13 +853,9 @@ def _decide_for_toast(
     executor.state.memory.instance["BreadSliced"] = 1  # its id in the frame it was picked up in
     executor.state.memory.where["BreadSliced"] = where
     executor.state.memory.placed_into["BreadSliced"] = ["Toaster"]
-    return executor.decide(
-        StepInputs(
-            0, pose, _first_view(semantic_map, percept, camera, pose), obs, digest(obs, SuccessConfig()), None
-        ),
-        parse_subgoals(subgoals, onto),
-        0,
-    )
+    plan = parse_subgoals(subgoals, onto)
+    view = _first_view(semantic_map, percept, camera, pose)
+    return executor.decide(_inputs(executor, 0, pose, view, obs, plan), plan, 0)
 
 
 @pytest.mark.parametrize("read_as", ["nothing", "toaster"])
@@ -894,7 +893,7 @@ def test_with_learned_segmentation_a_slice_put_into_a_toaster_is_picked_up_over_
 def test_the_plate_the_agent_serves_on_is_not_passed_over_for_looking_dirty() -> None:
     # What the agent put on a plate colours the stain cue (toast reads as stains): the lettuce of a sandwich
     # went onto the clean plate beside the one the toast was on (generated valid_unseen game 21).
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -927,18 +926,9 @@ def test_the_plate_the_agent_serves_on_is_not_passed_over_for_looking_dirty() ->
     )  # the toast's Place
     executor.state.memory.placed_into["BreadSliced"] = ["Plate"]
 
-    decision = executor.decide(
-        StepInputs(
-            0,
-            obs.pose,
-            _first_view(semantic_map, percept, camera, obs.pose),
-            obs,
-            digest(obs, SuccessConfig()),
-            None,
-        ),
-        parse_subgoals("Place Plate", onto),
-        0,
-    )
+    plan = parse_subgoals("Place Plate", onto)
+    view = _first_view(semantic_map, percept, camera, obs.pose)
+    decision = executor.decide(_inputs(executor, 0, obs.pose, view, obs, plan), plan, 0)
 
     assert decision.action == "Place", decision
     assert decision.x is not None and decision.y is not None
@@ -950,7 +940,7 @@ def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_howeve
     # and served a raw slice instead (generated valid_unseen game 21). Only what the agent put in the slot
     # fits there, so what comes out is that slice.
     from agent.classes import load_class_index
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -974,10 +964,9 @@ def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_howeve
         semantic_map.update(percept, observed.pose)
         last_success = None if index == 0 else True
         view = _first_view(semantic_map, percept, camera, observed.pose, holding, last_success)
-        inputs = StepInputs(
-            index, observed.pose, view, observed, digest(observed, SuccessConfig()), last_success
+        return executor.decide(
+            _inputs(executor, index, observed.pose, view, observed, plan, last_success), plan, 0
         )
-        return executor.decide(inputs, plan, 0)
 
     pickup = step(0, obs, _learned_percept(obs, obs.instances), holding=False)
     assert pickup.action == "Pickup" and pickup.x is not None and pickup.y is not None
@@ -1001,12 +990,13 @@ def test_with_learned_segmentation_toast_taken_out_of_its_toaster_is_kept_howeve
 def test_one_stained_piece_of_a_dish_stains_the_pieces_beside_it_but_not_the_dish_next_to_it() -> None:
     # Learned segmentation split a dirty plate into its stained middle and a rim that looked clean; the
     # sandwich went onto the rim's plate (generated valid_unseen game 21). A plate beside it stays clean.
-    from agent.executor.choice import STAIN_FRAGMENT_M, _stains_spread_to_fragments
+    from agent.executor.choice import _stains_spread_to_fragments
 
+    radius = ExecutorConfig().stain_fragment_m
     middle, rim, neighbour = (0.49, -2.54, "dirty"), (0.50, -2.70, "clean"), (0.87, -2.58, "clean")
-    assert math.dist(middle[:2], rim[:2]) < STAIN_FRAGMENT_M < math.dist(middle[:2], neighbour[:2]) - 0.1
+    assert math.dist(middle[:2], rim[:2]) < radius < math.dist(middle[:2], neighbour[:2]) - 0.1
 
-    spread = _stains_spread_to_fragments([middle, rim, neighbour])
+    spread = _stains_spread_to_fragments([middle, rim, neighbour], radius)
 
     assert [verdict for _, _, verdict in spread] == ["dirty", "dirty", "clean"]
 
@@ -1020,7 +1010,7 @@ def test_with_learned_segmentation_a_speck_of_x_in_reach_is_not_clicked_while_th
     import cv2
 
     from agent.classes import load_class_index
-    from agent.executor import Executor, StepInputs
+    from agent.executor import Executor
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -1062,11 +1052,8 @@ def test_with_learned_segmentation_a_speck_of_x_in_reach_is_not_clicked_while_th
     assert [v.pixels for v in view.clickable("Toaster")] == [12], "the speck alone is within reach"
     executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
 
-    decision = executor.decide(
-        StepInputs(0, pose, view, obs, digest(obs, SuccessConfig()), None),
-        parse_subgoals("ToggleOn Toaster", onto),
-        0,
-    )
+    plan = parse_subgoals("ToggleOn Toaster", onto)
+    decision = executor.decide(_inputs(executor, 0, pose, view, obs, plan), plan, 0)
 
     assert decision.action != "ToggleOn", decision  # it walks toward the toaster instead
 
@@ -1082,7 +1069,6 @@ def _decide_while_nothing_changes(
     """The executor's decisions over ``steps`` steps from one unchanging frame: after the first, each
     action it took is inferred to have failed (nothing changed), as a session would judge it; the plan and
     pointer each decision leaves are the next step's, as in a session."""
-    from agent.executor import StepInputs
 
     assert obs.pose is not None
     camera, pose = Camera(300, 300, 90.0), obs.pose
@@ -1100,12 +1086,11 @@ def _decide_while_nothing_changes(
             holding=held_type is not None,
             held_type=held_type,
             last_success=success,
-            ignored=executor.state.ignored,
+            ignored=executor.state.detections.ignored,
             explore_attempts={},
             click_config=CONFIG,
         )
-        inputs = StepInputs(step, pose, view, obs, digest(obs, SuccessConfig()), success)
-        decision = executor.decide(inputs, plan, pointer)
+        decision = executor.decide(_inputs(executor, step, pose, view, obs, plan, success), plan, pointer)
         decisions.append(decision)
         plan, pointer = list(decision.plan), decision.pointer
         if decision.stop:
@@ -1134,8 +1119,9 @@ def test_with_learned_segmentation_a_spot_where_place_keeps_failing_is_ruled_out
     )
     clicks = [(d.x, d.y) for d in decisions if d.action == "Place"]
 
-    ruled_out = [spot for spot in executor.state.ignored if spot.object_type == "CounterTop"]
-    assert len(clicks) >= 2 and ruled_out, (clicks, executor.state.ignored)
+    ignored = executor.state.detections.ignored
+    ruled_out = [spot for spot in ignored if spot.object_type == "CounterTop"]
+    assert len(clicks) >= 2 and ruled_out, (clicks, ignored)
 
 
 def test_a_subgoal_given_up_is_tried_once_more_when_the_plan_runs_out_if_the_episode_can_afford_it() -> None:
@@ -1201,17 +1187,33 @@ def test_with_learned_segmentation_an_open_changing_nothing_at_one_spot_is_not_t
 
     assert [d.action for d in decisions[:2]] == ["Open", "Open"], decisions
     assert not decisions[-1].plan_done and decisions[-1].pointer == 0, decisions[-1]
-    assert any(spot.object_type == openable[0] for spot in executor.state.ignored)
+    assert any(spot.object_type == openable[0] for spot in executor.state.detections.ignored)
 
 
 def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_again_for_the_search() -> None:
     # An Open of the search's cabinet changed nothing (a door standing open, or something misnamed a
     # cabinet): the spot was ruled out but the same sighting was chosen again, 28 failed Opens in a row
     # until TEACh's failure limit ended the game.
-    from agent.executor import Executor, StepInputs
+    from agent.executor import StepInputs
+    from agent.executor.approach import Approach
+    from agent.executor.choice import InstanceChoice
     from agent.executor.clicks import Click
-    from agent.executor.executor import _Run
-    from agent.executor.state import Attempt, ContainerVisit, Pending, Sighting
+    from agent.executor.context import StepContext
+    from agent.executor.detections import FalseDetections
+    from agent.executor.fronts import ContainerFronts
+    from agent.executor.motion import MotionSafety
+    from agent.executor.state import (
+        Attempt,
+        ContainerVisit,
+        Detections,
+        Memory,
+        MotionMemory,
+        Pending,
+        SearchMemory,
+        Sighting,
+        Verdict,
+    )
+    from agent.executor.visit import ContainerVisits
     from agent.navigation import make_navigator
     from symbolic.belief import BeliefState
     from symbolic.ontology import load_ontology
@@ -1222,33 +1224,39 @@ def test_with_learned_segmentation_a_container_that_did_not_open_is_not_chosen_a
     onto = load_ontology()
     camera, pose = Camera(300, 300, 90.0), obs.pose
     learned = _learned_percept(obs, obs.instances)
-    executor = Executor(onto, make_navigator("fmm"), BeliefState.initial(onto), np.random.default_rng(0))
     cabinet = Sighting("Cabinet", (pose.x + 0.4, 0.6, pose.z + 0.6), 5, 900)
-    executor.state.containers.append(cabinet)
     (subgoal,) = parse_subgoals("Pickup Bowl", onto)
     attempt = Attempt(0, subgoal, first_step=0)
     attempt.search.visit = ContainerVisit("Cabinet", cabinet.point, 0.0)
-    executor.state.attempt = attempt
     click = Click(150, 150, 0.5, 0.5, 9, (pose.x + 0.3, 0.7, pose.z + 0.5))
     semantic_map = SemanticMap(camera, pose)
     semantic_map.update(learned, pose)
     view = _first_view(semantic_map, learned, camera, pose)
-    inputs = StepInputs(1, pose, view, obs, digest(obs, SuccessConfig()), False)
-    run = _Run(
-        ontology=onto,
-        navigator=executor.navigator,
-        rng=executor.rng,
-        config=executor.config,
-        state=executor.state,
+    opened = Pending("Open", "search", 0, pose, click=click)
+    inputs = StepInputs(1, pose, view, obs, digest(obs, SuccessConfig()), Verdict(opened, False, False, None))
+    ctx = StepContext(
+        onto=onto,
+        navigator=make_navigator("fmm"),
+        rng=np.random.default_rng(0),
+        cfg=ExecutorConfig(),
         inputs=inputs,
         plan=[subgoal],
         pointer=0,
+        belief=BeliefState.initial(onto),
     )
+    memory, searched, detections = Memory(), SearchMemory(containers=[cabinet]), Detections()
+    false_detections = FalseDetections(ctx, detections)
+    choice = InstanceChoice(ctx, memory)
+    fronts = ContainerFronts(ctx, memory, searched.containers)
+    motion = MotionSafety(ctx, MotionMemory())
+    approach = Approach(ctx, memory, choice, fronts, motion, false_detections)
+    visits = ContainerVisits(ctx, memory, searched, choice, approach, fronts, motion, false_detections)
 
-    run._judge_search_action(Pending("Open", "search", 0, pose, click=click), success=False)
+    visits.judge(opened, False, attempt)
 
     assert attempt.search.visit is None
     assert cabinet.searched_for == ["Bowl"], "the search moves on to another container"
+    assert [spot.object_type for spot in detections.ignored] == ["Cabinet"], "the spot is ruled out"
 
 
 def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -> None:
@@ -1256,7 +1264,7 @@ def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -
     # DiningTable" and kept the plate's, the knife's and the slice's. Only the two dropped ones wait for the
     # retry; the plate and the knife, done meanwhile, must not be done over (once the retry took the mug
     # off the table again to free the hand for a plate already there).
-    from agent.executor.executor import _dropped
+    from agent.executor.progress import dropped
     from symbolic.ontology import load_ontology
     from symbolic.subgoals import parse_subgoals
 
@@ -1268,11 +1276,11 @@ def test_what_repair_dropped_after_a_give_up_is_told_apart_from_what_it_kept() -
         onto,
     )
     after = before[2:]
-    assert _dropped(before, after) == before[:2]
+    assert dropped(before, after) == before[:2]
 
     with_inserted = [*after[:4], *parse_subgoals("Place CounterTop", onto), *after[4:]]
-    assert _dropped(before, with_inserted) == before[:2]
-    assert _dropped(before, [before[0], *before[3:]]) == before[1:3]
+    assert dropped(before, with_inserted) == before[:2]
+    assert dropped(before, [before[0], *before[3:]]) == before[1:3]
 
 
 def _drive_seeing(
@@ -1286,7 +1294,6 @@ def _drive_seeing(
     """The executor driving the simulator through ``subgoals`` from the ``pointer``-th, each frame seen
     through ``eyes`` (what enters the map, what the view shows); the simulator tells whether each action
     succeeded, as a caller that sends ``last_action_success`` does."""
-    from agent.executor import StepInputs
     from symbolic.subgoals import parse_subgoals
 
     camera = Camera(300, 300, 90.0)
@@ -1307,12 +1314,11 @@ def _drive_seeing(
             obs.pose,
             holding=sim.world.agent.held is not None,
             last_success=success,
-            ignored=executor.state.ignored,
-            explore_attempts=executor.state.explore_attempts,
+            ignored=executor.state.detections.ignored,
+            explore_attempts=executor.state.detections.explore_attempts,
             click_config=CONFIG,
         )
-        inputs = StepInputs(step, obs.pose, view, obs, digest(obs, SuccessConfig()), success)
-        decision = executor.decide(inputs, plan, pointer)
+        decision = executor.decide(_inputs(executor, step, obs.pose, view, obs, plan, success), plan, pointer)
         decisions.append(decision)
         plan, pointer = list(decision.plan), decision.pointer
         if decision.stop:
@@ -1543,7 +1549,8 @@ def test_the_container_where_the_target_was_mapped_and_then_not_seen_is_opened_f
     fridge = ContainerCandidate("Fridge", (4.0, 0.9, 0.0), 1.8, 4.0, instance_id=7)
     candidates = [cabinet, fridge, drawer]
 
-    assert opening_order(candidates, prefer=None) == [cabinet, drawer, fridge]  # nearest first
-    assert opening_order(candidates, prefer="Drawer") == [drawer, cabinet, fridge]
+    config = SearchConfig()
+    assert opening_order(candidates, None, config) == [cabinet, drawer, fridge]  # nearest first
+    assert opening_order(candidates, "Drawer", config) == [drawer, cabinet, fridge]
     lettuce_was_at = [(4.5, 0.2)]  # 0.6 m behind the fridge's face
-    assert opening_order(candidates, prefer="Drawer", unseen_at=lettuce_was_at) == [fridge, drawer, cabinet]
+    assert opening_order(candidates, "Drawer", config, lettuce_was_at) == [fridge, drawer, cabinet]

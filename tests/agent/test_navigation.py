@@ -8,7 +8,6 @@ must keep CLEARANCE_M from every obstacle along the whole move.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -20,7 +19,6 @@ from agent.geometry import Camera, Pose, pixel_axis_distances, pixel_ray_slopes
 from agent.mapping import GridFrame, SemanticMap
 from agent.navigation import NAVIGATORS, make_navigator
 from agent.navigation.base import (
-    STEPS,
     NavGoal,
     NavGrids,
     Navigator,
@@ -29,6 +27,7 @@ from agent.navigation.base import (
     widened,
 )
 from agent.navigation.exploration import (
+    ExploreInput,
     FrontierExplorer,
     frontier_cells,
     ground_cells,
@@ -37,7 +36,9 @@ from agent.navigation.exploration import (
 from agent.navigation.fmm import FmmConfig, FmmNavigator, LatticeGraph, lattice_cost_field
 from agent.navigation.goals import ReachConfig, interaction_goal_cells
 from agent.navigation.vin import VinNavigator
-from harness.navgrid import CLEARANCE_M
+from bench.navigation import fewest_moves
+from harness.sim.navgrid import CLEARANCE_M
+from symbolic.registry import UnknownName
 from symbolic.thor import AGENT_RADIUS_M, GRID_STEP_M
 
 CELL_M = 0.05
@@ -63,6 +64,13 @@ def room(size: int) -> np.ndarray:
 def seen(obstacles: np.ndarray) -> NavGrids:
     """Fully explored grids over ``obstacles``."""
     return NavGrids(obstacles=obstacles, explored=np.ones_like(obstacles))
+
+
+def remember_blocked(collisions: np.ndarray, frame: GridFrame, pose: Pose, action: str) -> None:
+    """Mark the spot a blocked move tried to reach in a collision layer (the session's map marks a strip
+    around it: ``test_the_maps_collision_strip_holds_the_spot_a_blocked_move_tried_to_reach``)."""
+    ahead = pose.apply_motion(action, True)
+    collisions[frame.world_to_cell(ahead.x, ahead.z)] = True
 
 
 def spot(shape: tuple[int, int], cell: tuple[int, int]) -> NavGoal:
@@ -98,10 +106,11 @@ def drive(
     max_actions: int,
 ) -> Run:
     """Execute the navigator's actions on a pose; a move fails (and is reported as a collision) when the
-    agent's centre would come within CLEARANCE_M of an obstacle, as in harness.navgrid."""
+    agent's centre would come within CLEARANCE_M of an obstacle, as in harness.sim.navgrid."""
     frame = frame_for(obstacles.shape)
     passable = keeps_clear(obstacles, CLEARANCE_M)
-    grids = NavGrids(obstacles=obstacles, explored=explored)
+    grids = NavGrids(obstacles=obstacles, explored=explored, collisions=np.zeros_like(obstacles))
+    assert grids.collisions is not None
     actions = moves = blocked = 0
     while actions < max_actions:
         decision = navigator.next_action(grids, frame, pose, goal)
@@ -117,7 +126,7 @@ def drive(
             ]
             if not all(passable[c] for c in swept):
                 blocked += 1
-                navigator.record_collision(pose, decision.action, frame)
+                remember_blocked(grids.collisions, frame, pose, decision.action)
                 continue
             moves += 1
         pose = after
@@ -127,23 +136,9 @@ def drive(
 def lattice_shortest_moves(
     obstacles: np.ndarray, start: tuple[int, int], goal: np.ndarray, radius_m: float
 ) -> int:
-    """Breadth-first search over 0.25 m moves whose swept cells all keep the body radius from obstacles."""
-    fits = keeps_clear(obstacles, radius_m)
-    X, Z = obstacles.shape
-    dist = {start: 0}
-    queue = deque([start])
-    while queue:
-        i, j = queue.popleft()
-        if goal[i, j]:
-            return dist[(i, j)]
-        for di, dj in STEPS:
-            swept = [(i + di * k, j + dj * k) for k in range(1, STRIDE + 1)]
-            nxt = swept[-1]
-            if nxt in dist or not all(0 <= p < X and 0 <= q < Z and fits[p, q] for p, q in swept):
-                continue
-            dist[nxt] = dist[(i, j)] + 1
-            queue.append(nxt)
-    return -1
+    """The fewest 0.25 m moves whose swept cells all keep the body radius from obstacles (the benchmark's
+    breadth-first search); -1 when none reaches the goal."""
+    return fewest_moves(keeps_clear(obstacles, radius_m), start, goal)
 
 
 # ----- FMM on open floor and corridors ----------------------------------------------------------------------
@@ -345,14 +340,30 @@ def test_a_gap_only_the_squeeze_opens_is_tried_once_and_then_given_up() -> None:
     assert run.actions < 20  # walked to the wall, bumped into the gap, stopped
 
 
-def test_a_recorded_collision_stops_forward_and_marks_the_spot_a_move_ahead() -> None:
+def test_a_remembered_collision_stops_forward() -> None:
     obstacles = room(100)
     frame, pose, goal = frame_for((100, 100)), pose_at((50, 30), 0), spot((100, 100), (50, 80))
+    collisions = np.zeros_like(obstacles)
+    collisions[50, 35] = True  # the spot a move ahead, where a Forward was blocked
+    bumped = NavGrids(obstacles=obstacles, explored=np.ones_like(obstacles), collisions=collisions)
     for navigator in (FmmNavigator(), VinNavigator()):
         assert navigator.next_action(seen(obstacles), frame, pose, goal).action == "Forward"
-        assert navigator.record_collision(pose, "Forward", frame) == [(50, 35)]
-        assert navigator.next_action(seen(obstacles), frame, pose, goal).action != "Forward"
-        assert navigator.record_collision(pose, "Turn Left", frame) == []
+        assert navigator.next_action(bumped, frame, pose, goal).action != "Forward"
+
+
+@pytest.mark.parametrize("x, z", [(2.0, 2.0), (2.125, 2.125), (2.03, 1.97)])
+@pytest.mark.parametrize("yaw", [0.0, 90.0, 180.0, 270.0])
+@pytest.mark.parametrize("move", MOTIONS)
+def test_the_maps_collision_strip_holds_the_spot_a_blocked_move_tried_to_reach(
+    x: float, z: float, yaw: float, move: str
+) -> None:
+    """The map's collision layer is the one memory of blocked moves (JARVIS Alg. 3 l. 66): the strip it
+    marks holds the cell a move ahead, which navigators close, on the lattice or off it."""
+    semantic_map = SemanticMap(Camera(300, 300, 90.0), Pose(x, z))
+    pose = Pose(x, z, yaw)
+    semantic_map.record_collision(pose, move)
+    ahead = pose.apply_motion(move, True)
+    assert semantic_map.collisions()[semantic_map.world_to_cell(ahead.x, ahead.z)]
 
 
 def test_the_map_collision_layer_blocks_forward_without_trapping_the_agent() -> None:
@@ -623,18 +634,19 @@ def test_frontier_explorer_looks_around_then_explores_the_whole_room() -> None:
     explored = np.zeros_like(obstacles)
     passable = keeps_clear(obstacles, CLEARANCE_M)
     pose = pose_at((30, 30), 0)
+    collisions = np.zeros_like(obstacles)
     first = []
     for step in range(300):
         explored |= visible_cells(obstacles, frame.world_to_cell(pose.x, pose.z), 30)
-        grids = NavGrids(obstacles=obstacles & explored, explored=explored.copy())
-        decision = explorer.next_action(grids, frame, pose)
+        grids = NavGrids(obstacles=obstacles & explored, explored=explored.copy(), collisions=collisions)
+        decision = explorer.next_action(ExploreInput(grids, frame, pose))
         assert decision.action is not None, f"gave up at step {step}"
         first.append(decision.action)
         after = pose.apply_motion(decision.action, True)
         if passable[frame.world_to_cell(after.x, after.z)]:
             pose = after
         else:
-            navigator.record_collision(pose, decision.action, frame)
+            remember_blocked(collisions, frame, pose, decision.action)
     assert first[:3] == ["Turn Left"] * 3
     assert explored[~obstacles].mean() > 0.97
 
@@ -697,7 +709,7 @@ def test_navigators_reach_goals_in_maze_like_rooms(name: str, seed: int) -> None
 def test_make_navigator_builds_each_name_and_lists_them_on_a_typo() -> None:
     assert isinstance(make_navigator("fmm"), FmmNavigator)
     assert isinstance(make_navigator("vin"), VinNavigator)
-    with pytest.raises(ValueError, match=r"unknown navigator 'a\*'; known: \['fmm', 'vin'\]"):
+    with pytest.raises(UnknownName, match=r"unknown navigator 'a\*'; known: fmm, vin"):
         make_navigator("a*")
 
 

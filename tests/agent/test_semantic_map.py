@@ -13,9 +13,9 @@ from agent.mapping import GridFrame, MapConfig, SemanticMap, render_map_png
 from agent.mapping.picture import PictureStyle, class_colour
 from agent.perception import OraclePerception, Percept
 from agent.perception.decode import decode_observation
-from harness.camera import CameraPose, CameraSpec, pixel_to_world
-from harness.render import Renderer
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.render.camera import CameraPose, CameraSpec, pixel_to_world
+from harness.render.renderer import Renderer
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 
 CELL = MapConfig().cell_m
 

@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from executor_support import execute, kitchen, observation, simulator
+from executor_support import execute, kitchen, observation, oracle_session, simulator, step_through
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
@@ -24,28 +24,13 @@ STATE_BUDGET_BYTES = 2_000_000  # DESIGN.md §8
 
 
 def _session(subgoals: str, mode: Mode = "tfd", **extra: object) -> AgentSession:
-    ontology = load_ontology()
-    return AgentSession.start(
-        "s",
-        mode=mode,
-        camera=CAMERA,
-        perception="oracle",
-        navigator="fmm",
-        planner=make_planner("oracle", ontology),
-        given_subgoals=subgoals,
-        ontology=ontology,
-        **extra,  # type: ignore[arg-type]
-    )
+    return oracle_session(subgoals, mode=mode, **extra)
 
 
 def test_state_stays_within_budget_and_a_snapshot_resumes_with_the_same_decision() -> None:
     sim = simulator(kitchen())
     session = _session("Navigate Fridge, Open Fridge, Close Fridge, Navigate Toaster, ToggleOn Toaster")
-    for step in range(60):
-        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
-        if decision.done:
-            break
-        execute(sim, decision.action, decision.x, decision.y)
+    step_through(session, sim, 60)
     snapshot = session.to_bytes()
     restored = AgentSession.from_bytes(snapshot)
     upcoming = observation(sim.observe(noise_seed=99), sim.world.agent)
@@ -112,17 +97,13 @@ def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs
     assert session.plan_source == "model"
     # a plan that runs out soon, whatever the model first made of the request:
     session.plan = [Subgoal(A.NAVIGATE, "Apple"), Subgoal(A.PICKUP, "Apple")]
-    for step in range(250):
-        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
-        if decision.done:
-            break
-        execute(sim, decision.action, decision.x, decision.y)
+    step_through(session, sim, 250)
     events = [
         e for line in session.trace.lines() for e in json.loads(line)["events"] if e.startswith("re-pl")
     ]
     assert events and events[0].startswith("re-planned because the plan ran out"), events
     assert 1 <= session.progress_replans <= session.limits.max_progress_replans
-    done = session.executor.state.completed
+    done = session.executor.completed
     assert Subgoal(A.PICKUP, "Apple") in done
     assert session._planning_context(session.dialogue).history_subgoals == tuple(done)
 
@@ -131,21 +112,17 @@ def test_a_commanders_new_plan_replaces_what_the_executor_meant_to_try_again() -
     """Subgoals given up wait for one more round when the plan runs out; a planner's new plan (here after
     a commander's turn) is its word on what is left, so they do not come back after it."""
     session = _model_planned_session("hi, please pick up the apple")
-    session.executor.state.retry.append(Subgoal(A.PLACE, "Shelf"))  # given up earlier
+    session.executor.state.progress.retry.append(Subgoal(A.PLACE, "Shelf"))  # given up earlier
 
     assert session.add_utterance("Commander", "now put the apple in the fridge")
-    assert session.executor.state.retry == []
+    assert session.executor.state.progress.retry == []
 
 
 def test_an_oracle_planned_session_never_plans_again_on_its_own() -> None:
     sim = simulator(kitchen())
     session = _session("Navigate Apple, Pickup Apple")
-    for step in range(200):
-        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
-        if decision.done:
-            break
-        execute(sim, decision.action, decision.x, decision.y)
-    assert decision.done and session.progress_replans == 0
+    decisions = step_through(session, sim, 200)
+    assert decisions[-1].done and session.progress_replans == 0
 
 
 def test_an_observation_perception_cannot_use_changes_nothing() -> None:
@@ -274,9 +251,9 @@ def test_with_estimated_depth_the_held_object_is_neither_mapped_nor_clicked() ->
 def test_the_hand_region_covers_every_held_object_at_any_resolution_and_field_of_view(
     size: int, hfov: float
 ) -> None:
-    from harness.camera import CameraSpec
-    from harness.simulator import Simulator
-    from harness.worldgen import generate_bedroom, generate_living_room
+    from harness.render.camera import CameraSpec
+    from harness.sim.simulator import Simulator
+    from harness.world.procedural.generate import generate_bedroom, generate_living_room
 
     hand = HandRegion().mask(Camera(size, size, hfov))
     onto = load_ontology()

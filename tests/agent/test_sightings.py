@@ -9,9 +9,9 @@ from agent.executor.clicks import ClickConfig, pixel_distances, usable_pixels
 from agent.executor.sightings import facing, mark_searched, mark_visited, note, observe
 from agent.executor.state import ContainerVisit, Sighting
 from agent.geometry import Camera, Pose
-from harness.camera import CameraSpec
-from harness.render import Renderer
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 
 CAMERA = Camera(300, 300, 90.0)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import msgpack
 import numpy as np
 import pytest
-from executor_support import execute, kitchen, observation, simulator
+from executor_support import execute, kitchen, observation, oracle_session, simulator, step_through
 
 import agent.session
 import agent.snapshot
@@ -26,7 +26,7 @@ from agent.navigation.exploration import FrontierExplorer
 from agent.planning import make_planner
 from agent.session import AgentSession
 from agent.snapshot import FORMAT_VERSION, MAGIC, Name, SnapshotError, Tag, dumps, loads
-from harness.simulator import Simulator
+from harness.sim.simulator import Simulator
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -37,23 +37,10 @@ SEARCH_STEPS = 30
 
 def _searching(navigator: str, explorer: str) -> tuple[AgentSession, Simulator]:
     """A session ``SEARCH_STEPS`` into a search with a live explorer, and its simulator."""
-    ontology = load_ontology()
-    session = AgentSession.start(
-        "s",
-        mode="tfd",
-        camera=CAMERA,
-        perception="oracle",
-        navigator=navigator,  # type: ignore[arg-type]
-        planner=make_planner("oracle", ontology),
-        given_subgoals="Navigate Kettle, Pickup Kettle",
-        explorer=explorer,  # type: ignore[arg-type]
-        ontology=ontology,
-    )
+    session = oracle_session("Navigate Kettle, Pickup Kettle", navigator=navigator, explorer=explorer)
     sim = simulator(kitchen())
     assert not sim.world.of_type("Kettle")
-    for step in range(SEARCH_STEPS):
-        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
-        execute(sim, decision.action, decision.x, decision.y)
+    step_through(session, sim, SEARCH_STEPS)
     attempt = session.executor.state.attempt
     assert attempt is not None and attempt.search.explorer is not None, "the search has no explorer"
     return session, sim
@@ -280,21 +267,8 @@ def test_truncated_or_garbage_bytes_are_refused_with_snapshot_error_only() -> No
 
 def _small_session(steps: int = 0) -> AgentSession:
     """A session ``steps`` into fetching an apple."""
-    ontology = load_ontology()
-    session = AgentSession.start(
-        "s",
-        mode="tfd",
-        camera=CAMERA,
-        perception="oracle",
-        navigator="fmm",
-        planner=make_planner("oracle", ontology),
-        given_subgoals="Navigate Apple, Pickup Apple",
-        ontology=ontology,
-    )
-    sim = simulator(kitchen())
-    for step in range(steps):
-        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
-        execute(sim, decision.action, decision.x, decision.y)
+    session = oracle_session("Navigate Apple, Pickup Apple")
+    step_through(session, simulator(kitchen()), steps)
     return session
 
 

@@ -1,16 +1,28 @@
-"""Helpers for the app tests: a hand-moved clock and step bodies built from real PNG encodings."""
+"""Helpers for the app tests: a hand-moved clock, step bodies built from real PNG encodings, a session to
+step, and the app served by uvicorn over TCP."""
 
 from __future__ import annotations
 
 import base64
 import io
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+import httpx
 import numpy as np
+import uvicorn
+from fastapi import FastAPI
+from fastapi.testclient import TestClient
 from PIL import Image
 
+from harness.drive.service import LOOPBACK, free_port
+
 SMALL_CAMERA = {"width": 32, "height": 24, "hfov_deg": 90.0}
+STARTUP_TIMEOUT_S = 30.0
 
 
 @dataclass
@@ -44,3 +56,35 @@ def oracle_observation(width: int = 32, height: int = 24) -> dict[str, Any]:
         "segmentation": png_base64(instances),
         "segmentation_legend": {"7": "Knife"},
     }
+
+
+def new_session(client: TestClient, **extra: Any) -> str:
+    """A TfD session planned "Slice Bread" with the small camera (``extra`` adds or overrides); its id."""
+    body = {"mode": "tfd", "subgoals": "Slice Bread", "camera": SMALL_CAMERA, **extra}
+    response = client.post("/v1/sessions", json=body)
+    assert response.status_code == 201, response.text
+    return str(response.json()["session_id"])
+
+
+def post_step(client: TestClient, session_id: str, body: dict[str, Any]) -> httpx.Response:
+    return client.post(f"/v1/sessions/{session_id}/step", json=body)
+
+
+@contextmanager
+def serving(app: FastAPI) -> Iterator[str]:
+    """``app`` served by uvicorn (its default HTTP implementation, lifespan run) in a thread on a free port;
+    yields the base URL."""
+    port = free_port()
+    server = uvicorn.Server(uvicorn.Config(app, host=LOOPBACK, port=port, log_config=None, access_log=False))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while not server.started:
+        assert thread.is_alive(), "uvicorn stopped while starting"
+        assert time.monotonic() < deadline, f"uvicorn not started after {STARTUP_TIMEOUT_S} s"
+        time.sleep(0.02)
+    try:
+        yield f"http://{LOOPBACK}:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=30)

@@ -15,23 +15,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-from app_support import SMALL_CAMERA, oracle_observation
+from app_support import SMALL_CAMERA, new_session, oracle_observation, post_step
 from fastapi.testclient import TestClient
 from PIL import Image
 
 from app.main import create_app
 from app.settings import Settings
-
-
-def _session(client: TestClient, **extra: Any) -> str:
-    body = {"mode": "tfd", "subgoals": "Slice Bread", "camera": SMALL_CAMERA, **extra}
-    response = client.post("/v1/sessions", json=body)
-    assert response.status_code == 201, response.text
-    return str(response.json()["session_id"])
-
-
-def _step(client: TestClient, session_id: str, body: dict[str, Any]) -> Any:
-    return client.post(f"/v1/sessions/{session_id}/step", json=body)
 
 
 def _pose(x: float, z: float = 0.0) -> dict[str, float]:
@@ -63,13 +52,13 @@ def _jpeg_declaring(width: int, height: int) -> bytes:
 
 
 def test_a_pose_beyond_the_map_is_refused_and_the_session_is_untouched(client: TestClient) -> None:
-    refused_id, control_id = _session(client), _session(client)
+    refused_id, control_id = new_session(client), new_session(client)
     first = {**oracle_observation(), "pose": _pose(-0.375)}
     for session_id in (refused_id, control_id):
-        assert _step(client, session_id, {**first, "step": 0}).status_code == 200
+        assert post_step(client, session_id, {**first, "step": 0}).status_code == 200
     before = _readable_state(client, refused_id)
 
-    response = _step(client, refused_id, {**oracle_observation(), "pose": _pose(30.0), "step": 1})
+    response = post_step(client, refused_id, {**oracle_observation(), "pose": _pose(30.0), "step": 1})
 
     assert response.status_code == 422, response.text
     assert response.json()["error"] == "invalid_pose"
@@ -77,7 +66,7 @@ def test_a_pose_beyond_the_map_is_refused_and_the_session_is_untouched(client: T
     assert _readable_state(client, refused_id) == before
     for index in range(1, 6):  # the refused session goes on exactly as one that never got the bad step
         body = {**oracle_observation(), "pose": _pose(-0.375 + 0.25 * (index % 2)), "step": index}
-        refused, control = _step(client, refused_id, body), _step(client, control_id, body)
+        refused, control = post_step(client, refused_id, body), post_step(client, control_id, body)
         assert refused.status_code == control.status_code == 200
         assert refused.json() == control.json()
     assert client.get(f"/v1/sessions/{refused_id}/map.png").content == (
@@ -87,9 +76,9 @@ def test_a_pose_beyond_the_map_is_refused_and_the_session_is_untouched(client: T
 
 @pytest.mark.parametrize("x", [1e9, -1e9, 100.5, 1e308])
 def test_a_pose_outside_the_house_is_a_validation_error(client: TestClient, x: float) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
 
-    response = _step(client, session_id, {**oracle_observation(), "pose": _pose(x)})
+    response = post_step(client, session_id, {**oracle_observation(), "pose": _pose(x)})
 
     assert response.status_code == 422, response.text
     assert response.json()["error"] == "validation_error"
@@ -101,11 +90,11 @@ def test_a_pose_outside_the_house_is_a_validation_error(client: TestClient, x: f
 
 
 def test_a_legend_id_beyond_32_bits_is_invalid_segmentation(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     body = oracle_observation()
     body["segmentation_legend"] = {**body["segmentation_legend"], "100000000000000000000": "Knife"}
 
-    response = _step(client, session_id, body)
+    response = post_step(client, session_id, body)
 
     assert response.status_code == 422, response.text
     assert response.json()["error"] == "invalid_segmentation"
@@ -140,11 +129,11 @@ def test_a_camera_no_step_could_use_is_refused_at_creation(
 def test_a_jpeg_declaring_a_huge_size_is_refused_from_its_header_in_json_and_multipart(
     client: TestClient,
 ) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     bomb = _jpeg_declaring(16000, 16000)
     body = {**oracle_observation(), "rgb": base64.b64encode(bomb).decode()}
 
-    as_json = _step(client, session_id, body)
+    as_json = post_step(client, session_id, body)
     fields = {k: json.dumps(v) if not isinstance(v, str) else v for k, v in body.items() if k != "rgb"}
     files = {"rgb": ("rgb.jpeg", bomb, "image/jpeg")}
     for name in ("depth", "segmentation"):
@@ -261,16 +250,16 @@ def test_a_request_that_queued_past_the_deadline_answers_503_and_does_nothing() 
 def test_a_step_that_queued_past_the_deadline_answers_503_and_leaves_the_session_as_it_was() -> None:
     """The step route takes one worker thread for all its work and checks the deadline first in it."""
     with TestClient(_one_worker_thread_app(), raise_server_exceptions=False) as client:
-        session_id = _session(client)
+        session_id = new_session(client)
         before = _readable_state(client, session_id)
         with _worker_held(client):
-            queued = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
+            queued = post_step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
 
         assert queued.status_code == 503, queued.text
         assert queued.json()["error"] == "overloaded"
         assert int(queued.headers["Retry-After"]) >= 1
         assert _readable_state(client, session_id) == before
-        stepped = _step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
+        stepped = post_step(client, session_id, {**oracle_observation(), "pose": _pose(-0.375)})
         assert stepped.status_code == 200, stepped.text  # nothing queues now: the same step goes through
 
 

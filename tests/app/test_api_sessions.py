@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi.testclient import TestClient
 
-from agent.executor.config import DEFAULT_EXPLORER
+from agent.explorers import DEFAULT_EXPLORER
 from symbolic.thor import CAMERA_HEIGHT_M
 
 ACCEPTANCE = {"mode": "tfd", "planner": "oracle", "subgoals": "Slice Bread"}

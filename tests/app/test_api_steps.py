@@ -12,24 +12,13 @@ from typing import Any
 import cv2
 import numpy as np
 import pytest
-from app_support import SMALL_CAMERA, oracle_observation
+from app_support import SMALL_CAMERA, new_session, oracle_observation, post_step
 from fastapi.testclient import TestClient
 
 from agent.perception import PERCEPTION_BACKENDS
 from symbolic.thor import MOTION_ACTIONS
 
 POSE = {"x": 1.0, "z": 0.5, "yaw": 90.0, "horizon": 30.0}
-
-
-def _session(client: TestClient, **extra: Any) -> str:
-    body = {"mode": "tfd", "subgoals": "Slice Bread", "camera": SMALL_CAMERA, **extra}
-    response = client.post("/v1/sessions", json=body)
-    assert response.status_code == 201, response.text
-    return str(response.json()["session_id"])
-
-
-def _step(client: TestClient, session_id: str, body: dict[str, Any]) -> Any:
-    return client.post(f"/v1/sessions/{session_id}/step", json=body)
 
 
 def _multipart(body: dict[str, Any]) -> tuple[dict[str, str], dict[str, tuple[str, bytes]]]:
@@ -48,9 +37,9 @@ def _multipart(body: dict[str, Any]) -> tuple[dict[str, str], dict[str, tuple[st
 
 
 def test_a_valid_step_answers_an_action_with_its_reason_and_advances_the_session(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
 
-    response = _step(client, session_id, {**oracle_observation(), "pose": POSE, "step": 0})
+    response = post_step(client, session_id, {**oracle_observation(), "pose": POSE, "step": 0})
 
     assert response.status_code == 200, response.text
     answer = response.json()
@@ -65,11 +54,11 @@ def test_a_valid_step_answers_an_action_with_its_reason_and_advances_the_session
 
 
 def test_multipart_and_json_give_the_same_answer(client: TestClient) -> None:
-    json_id, form_id = _session(client), _session(client)
+    json_id, form_id = new_session(client), new_session(client)
     body = {**oracle_observation(), "pose": POSE, "last_action_success": True, "step": 0}
     data, files = _multipart(body)
 
-    by_json = _step(client, json_id, body)
+    by_json = post_step(client, json_id, body)
     by_form = client.post(f"/v1/sessions/{form_id}/step", data=data, files=files)
 
     assert by_form.status_code == 200, by_form.text
@@ -102,7 +91,7 @@ MALFORMED_FORMS = [
 def test_a_malformed_form_is_a_400_naming_the_problem_and_changes_nothing(
     client: TestClient, content_type: str, body: bytes, words: str
 ) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     before = client.get(f"/v1/sessions/{session_id}").json()
 
     response = client.post(
@@ -117,7 +106,7 @@ def test_a_malformed_form_is_a_400_naming_the_problem_and_changes_nothing(
 
 def test_array_parts_give_the_answer_their_pngs_give(client: TestClient) -> None:
     """.npy file parts of the same pixels (and float32 depth) answer as the PNG parts do."""
-    png_id, array_id = _session(client), _session(client)
+    png_id, array_id = new_session(client), new_session(client)
     body = {**oracle_observation(), "pose": POSE, "step": 0}
     data, files = _multipart(body)
     arrays = {name: _as_npy(name, content) for name, (_, content) in files.items()}
@@ -144,7 +133,7 @@ def _as_npy(name: str, png: bytes) -> tuple[str, bytes]:
 
 
 def test_multipart_with_a_bad_pose_names_the_field(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     data, files = _multipart(oracle_observation())
     data["pose"] = '{"x": 1.0}'
 
@@ -156,13 +145,13 @@ def test_multipart_with_a_bad_pose_names_the_field(client: TestClient) -> None:
 
 
 def test_a_retried_step_gets_the_same_answer_and_changes_nothing(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     body = {**oracle_observation(), "pose": POSE, "step": 0}
-    first = _step(client, session_id, body)
+    first = post_step(client, session_id, body)
     session_after_first = client.get(f"/v1/sessions/{session_id}").json()
     trace_after_first = client.get(f"/v1/sessions/{session_id}/trace").text
 
-    again = _step(client, session_id, body)
+    again = post_step(client, session_id, body)
 
     assert again.status_code == 200
     assert again.json() == first.json()
@@ -171,12 +160,12 @@ def test_a_retried_step_gets_the_same_answer_and_changes_nothing(client: TestCli
 
 
 def test_a_step_index_neither_next_nor_last_is_refused(client: TestClient) -> None:
-    session_id = _session(client)
-    assert _step(client, session_id, {**oracle_observation(), "step": 0}).status_code == 200
-    assert _step(client, session_id, {**oracle_observation(), "step": 1}).status_code == 200
+    session_id = new_session(client)
+    assert post_step(client, session_id, {**oracle_observation(), "step": 0}).status_code == 200
+    assert post_step(client, session_id, {**oracle_observation(), "step": 1}).status_code == 200
 
-    stale = _step(client, session_id, {**oracle_observation(), "step": 0})
-    ahead = _step(client, session_id, {**oracle_observation(), "step": 5})
+    stale = post_step(client, session_id, {**oracle_observation(), "step": 0})
+    ahead = post_step(client, session_id, {**oracle_observation(), "step": 5})
 
     for response in (stale, ahead):
         assert response.status_code == 409
@@ -188,11 +177,11 @@ def test_a_step_index_neither_next_nor_last_is_refused(client: TestClient) -> No
 def test_per_frame_segmentation_ids_are_declared_in_json_or_form_and_shown_in_the_trace(
     client: TestClient,
 ) -> None:
-    json_id, form_id = _session(client), _session(client)
+    json_id, form_id = new_session(client), new_session(client)
     body = {**oracle_observation(), "segmentation_ids_persistent": False}
     data, files = _multipart(body)
 
-    assert _step(client, json_id, body).status_code == 200
+    assert post_step(client, json_id, body).status_code == 200
     by_form = client.post(f"/v1/sessions/{form_id}/step", data=data, files=files)
     assert by_form.status_code == 200, by_form.text
     for session_id in (json_id, form_id):
@@ -200,14 +189,14 @@ def test_per_frame_segmentation_ids_are_declared_in_json_or_form_and_shown_in_th
             json.loads(line) for line in client.get(f"/v1/sessions/{session_id}/trace").text.splitlines()
         ]
         assert entry["inputs"]["segmentation_ids_persistent"] is False
-    refused = _step(
-        client, _session(client), {**oracle_observation(), "segmentation_ids_persistent": "maybe"}
+    refused = post_step(
+        client, new_session(client), {**oracle_observation(), "segmentation_ids_persistent": "maybe"}
     )
     assert refused.status_code == 422 and "segmentation_ids_persistent" in refused.json()["detail"]
 
 
 def test_float32_depth_with_uncertainty_is_accepted(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     depth = np.full((SMALL_CAMERA["height"], SMALL_CAMERA["width"]), 1.5, dtype="<f4")
     body = {
         **oracle_observation(),
@@ -216,7 +205,7 @@ def test_float32_depth_with_uncertainty_is_accepted(client: TestClient) -> None:
         "depth_uncertainty": base64.b64encode((depth * 0.1).tobytes()).decode(),
     }
 
-    assert _step(client, session_id, body).status_code == 200
+    assert post_step(client, session_id, body).status_code == 200
 
 
 def test_learned_perception_needs_rgb(client: TestClient) -> None:
@@ -231,7 +220,7 @@ def test_learned_perception_needs_rgb(client: TestClient) -> None:
         pytest.skip(f"learned perception cannot run here: {created.json()['detail']}")
     session_id = created.json()["session_id"]
 
-    response = _step(client, session_id, {**oracle_observation(), "rgb": None})
+    response = post_step(client, session_id, {**oracle_observation(), "rgb": None})
 
     assert response.status_code == 422
     assert response.json()["error"] == "missing_observation"
@@ -239,15 +228,15 @@ def test_learned_perception_needs_rgb(client: TestClient) -> None:
 
 
 def test_a_refused_step_leaves_the_session_and_its_trace_as_they_were(client: TestClient) -> None:
-    session_id = _session(client)
-    assert _step(client, session_id, oracle_observation()).status_code == 200
+    session_id = new_session(client)
+    assert post_step(client, session_id, oracle_observation()).status_code == 200
     before = (
         client.get(f"/v1/sessions/{session_id}").content,
         client.get(f"/v1/sessions/{session_id}/trace").text,
     )
     bad_legend = {**oracle_observation(), "segmentation_legend": {"9": "Knife"}}  # id 7 is in the image
 
-    response = _step(client, session_id, bad_legend)
+    response = post_step(client, session_id, bad_legend)
 
     assert response.status_code == 422
     assert response.json()["error"] == "invalid_segmentation"
@@ -260,7 +249,7 @@ def test_a_refused_step_leaves_the_session_and_its_trace_as_they_were(client: Te
 
 
 def test_a_file_part_that_is_no_image_field_is_refused(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     data, files = _multipart(oracle_observation())
     files["pose"] = ("pose.json", io.BytesIO(b"{}").getvalue())
 
@@ -271,12 +260,12 @@ def test_a_file_part_that_is_no_image_field_is_refused(client: TestClient) -> No
 
 
 def test_step_while_another_request_holds_the_session_answers_409(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     store = client.app.state.store  # type: ignore[attr-defined]
 
     with store.hold(session_id, None, 1.0, write=False):
-        raced = _step(client, session_id, oracle_observation())
-    after = _step(client, session_id, oracle_observation())
+        raced = post_step(client, session_id, oracle_observation())
+    after = post_step(client, session_id, oracle_observation())
 
     assert raced.status_code == 409
     assert raced.json()["error"] == "step_in_progress"
@@ -285,13 +274,13 @@ def test_step_while_another_request_holds_the_session_answers_409(client: TestCl
 
 
 def test_concurrent_steps_of_one_session_are_serialized_or_refused(client: TestClient) -> None:
-    session_id = _session(client)
+    session_id = new_session(client)
     statuses: list[int] = []
     steps: list[int] = []
 
     def post_steps() -> None:
         for _ in range(4):
-            response = _step(client, session_id, oracle_observation())
+            response = post_step(client, session_id, oracle_observation())
             statuses.append(response.status_code)
             if response.status_code == 200:
                 steps.append(response.json()["step"])

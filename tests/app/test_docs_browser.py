@@ -21,7 +21,7 @@ import pytest
 from browser_support import CHROMIUM, CHROMIUM_ARGS
 
 from app.doc_examples import EXAMPLE_SESSION_CREATE, EXAMPLE_STEP
-from harness.service import running_service
+from harness.drive.service import running_service
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "out"

@@ -10,22 +10,19 @@ from __future__ import annotations
 import asyncio
 import hashlib
 import json
-import socket
-import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import httpx
-import uvicorn
-from app_support import SMALL_CAMERA, oracle_observation
+from app_support import SMALL_CAMERA, oracle_observation, serving
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
-from harness.client import TeachRemoteModel
+from harness.drive.client import TeachRemoteModel
 
 SESSION = {"mode": "tfd", "planner": "oracle", "subgoals": "Slice Bread", "camera": SMALL_CAMERA}
 QUIET: dict[str, Any] = {"log_level": "warning", "preload_models": False, "session_lock_timeout_s": 0.2}
@@ -34,30 +31,12 @@ QUIET: dict[str, Any] = {"log_level": "warning", "preload_models": False, "sessi
 # ---- helpers -----------------------------------------------------------------------------------------------
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
 @contextmanager
 def served(app: FastAPI) -> Iterator[httpx.Client]:
     """The app under uvicorn on a free port in a thread; an HTTP client pointed at it."""
-    port = _free_port()
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_config=None, lifespan="on"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 20.0
-    while not server.started:
-        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
-        time.sleep(0.02)
-    try:
-        # Generous: the TEACh test loads the learned perception networks on its first step.
-        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=120.0) as http:
-            yield http
-    finally:
-        server.should_exit = True
-        thread.join(timeout=20.0)
+    # Generous: the TEACh test loads the learned perception networks on its first step.
+    with serving(app) as base_url, httpx.Client(base_url=base_url, timeout=120.0) as http:
+        yield http
 
 
 class EventReader:

@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from fastapi.testclient import TestClient
 
+from agent.explorers import EXPLORERS
+from agent.navigation import NAVIGATORS
+from agent.perception import PERCEPTION_BACKENDS
+from agent.planning import PLANNERS
+
 
 def test_every_schema_property_has_a_description_and_an_example(client: TestClient) -> None:
     schemas = client.get("/openapi.json").json()["components"]["schemas"]
@@ -60,3 +65,27 @@ def test_docs_page_is_served(client: TestClient) -> None:
 
     assert response.status_code == 200
     assert "swagger" in response.text.lower()
+
+
+def test_the_named_parts_a_session_picks_are_listed_as_their_registries_name_them(client: TestClient) -> None:
+    create = client.get("/openapi.json").json()["components"]["schemas"]["SessionCreate"]["properties"]
+
+    def allowed(field: str) -> list[str]:
+        spec = create[field]
+        options = [spec, *spec.get("anyOf", [])]
+        return next(option["enum"] for option in options if "enum" in option)
+
+    assert allowed("perception") == list(PERCEPTION_BACKENDS.names())
+    assert allowed("navigator") == list(NAVIGATORS.names())
+    assert allowed("planner") == list(PLANNERS.names())
+    assert allowed("explorer") == list(EXPLORERS.names())
+
+
+def test_an_unknown_perception_is_refused_naming_the_known_ones(client: TestClient) -> None:
+    refused = client.post(
+        "/v1/sessions", json={"mode": "tfd", "subgoals": "Open Fridge", "perception": "lidar"}
+    )
+
+    assert refused.status_code == 422 and refused.json()["error"] == "validation_error", refused.json()
+    for name in PERCEPTION_BACKENDS.names():
+        assert name in refused.json()["detail"], refused.json()

@@ -22,10 +22,11 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
-from harness.camera import CameraSpec
-from harness.client import AgentClient, RetryPolicy, pose_of
-from harness.simulator import Simulator
-from harness.worldgen import generate_kitchen
+from harness.drive.client import AgentClient, RetryPolicy, pose_of
+from harness.drive.service import free_port
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
+from harness.world.procedural.generate import generate_kitchen
 from symbolic.thor import OBJECT_ACTIONS
 
 REPO = Path(__file__).resolve().parents[2]
@@ -35,14 +36,6 @@ MAX_STEPS = 60
 STARTUP_TIMEOUT_S = 90.0
 
 Answer = tuple[str, float | None, float | None, str | None]
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
 
 
 def _is_worker(pid: int) -> bool:
@@ -108,7 +101,7 @@ class Service:
 
 @pytest.fixture
 def service(redis_url: str, redis_prefix: str, tmp_path: Path) -> Iterator[Service]:
-    port = _free_port()
+    port = free_port()
     env = {
         **os.environ,
         "JARVIS_HOST": "127.0.0.1",
@@ -230,7 +223,7 @@ def test_listing_and_capacity_are_the_same_from_every_worker(service: Service) -
 
 
 def test_several_workers_over_the_in_memory_store_are_refused() -> None:
-    env = {**os.environ, "JARVIS_STORE": "memory", "JARVIS_WORKERS": "2", "JARVIS_PORT": str(_free_port())}
+    env = {**os.environ, "JARVIS_STORE": "memory", "JARVIS_WORKERS": "2", "JARVIS_PORT": str(free_port())}
     result = subprocess.run(
         [sys.executable, "-m", "app"], cwd=REPO, env=env, capture_output=True, text=True, timeout=60
     )

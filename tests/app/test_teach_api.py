@@ -1,9 +1,9 @@
 """TEACh's RemoteModel routes on the real app (TestClient): forms built exactly as RemoteModel builds them.
 
-``harness.client.TeachRemoteModel`` mirrors TEACh's ``teach/inference/remote_model.py`` request for request
-(fields dropped when None, as ``requests`` does; JPEG files saved with PIL's defaults); the error cases post
-hand-made forms. Frames are small synthetic pictures: these tests are about the protocol, the whole-episode
-test in ``test_teach_remote_episode.py`` drives the simulator.
+``harness.drive.client.TeachRemoteModel`` mirrors TEACh's ``teach/inference/remote_model.py`` request for
+request (fields dropped when None, as ``requests`` does; JPEG files saved with PIL's defaults); the error
+cases post hand-made forms. Frames are small synthetic pictures: these tests are about the protocol, the
+whole-episode test in ``test_teach_remote_episode.py`` drives the simulator.
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from PIL import Image
+from prometheus_client.parser import text_string_to_metric_families
 
-from harness.client import TeachRemoteModel
+from harness.drive.client import TeachRemoteModel
 from symbolic.thor import CAMERA_HEIGHT_M, TEACH_DRIVER_ACTIONS
 
 SIDE = 96  # frames of the unit tests, pixels (TEACh's are 900; the camera follows the frames)
@@ -251,6 +252,18 @@ def test_a_repeated_img_name_is_a_retry(client: TestClient) -> None:
     assert first.status_code == again.status_code == 200
     assert again.json() == first.json()
     assert session_of(client, started)["step"] == 1
+
+
+def test_teach_steps_count_in_the_step_metrics_and_a_retry_does_not(client: TestClient) -> None:
+    start(client)
+    for _ in range(2):  # the second is a retry of the first frame
+        assert client.post("/get_next_action", **next_form()).status_code == 200
+    samples = {
+        sample.name: sample.value
+        for family in text_string_to_metric_families(client.get("/metrics").text)
+        for sample in family.samples
+    }
+    assert samples["jarvis_steps_total"] == 1
 
 
 def test_an_img_part_without_file_name_is_read(client: TestClient) -> None:

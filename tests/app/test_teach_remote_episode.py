@@ -1,8 +1,8 @@
 """Whole EDH episodes the way TEACh's inference runner drives a RemoteModel: the real server process over
 TCP, our simulator standing in for AI2-THOR, every request built as ``teach/inference/remote_model.py``
-builds it (``harness.client.TeachRemoteModel``) and every action executed as TEACh's runner executes it
-(``harness.runner.run_teach_episode``: the click read as ``[y, x]``). TEACh's runner lets its step limit be
-set (``max_traj_steps``); a small one keeps each episode to seconds.
+builds it (``harness.drive.client.TeachRemoteModel``) and every action executed as TEACh's runner executes it
+(``harness.drive.teach_remote.run_teach_episode``: the click read as ``[y, x]``). TEACh's runner lets its step
+limit be set (``max_traj_steps``); a small one keeps each episode to seconds.
 """
 
 from __future__ import annotations
@@ -14,10 +14,12 @@ from typing import Any
 import httpx
 import pytest
 
-from harness.camera import CameraSpec
-from harness.client import TeachRemoteModel
-from harness.runner import EpisodeRun, RunnerOptions, generated_teach_instance, run_teach_episode
-from harness.service import RunningService, running_service
+from harness.drive.client import TeachRemoteModel
+from harness.drive.generated import generated_teach_instance
+from harness.drive.runner import EpisodeRun, RunnerOptions
+from harness.drive.service import RunningService, running_service
+from harness.drive.teach_remote import run_teach_episode
+from harness.render.camera import CameraSpec
 from symbolic.thor import OBJECT_ACTIONS, TEACH_DRIVER_ACTIONS, TEACH_HFOV_DEG
 
 CAMERA = CameraSpec(300, 300, TEACH_HFOV_DEG)  # TEACh's 900 costs 9x the pixels; the protocol is the same

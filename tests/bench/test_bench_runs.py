@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bench.tatc_commander import runs_for_commit
+from bench.stamp import runs_for_commit
 
 
 def test_a_run_folder_of_another_commit_is_cleared_and_one_of_this_commit_kept(tmp_path: Path) -> None:

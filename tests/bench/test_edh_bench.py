@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bench.edh import SEED_TABLE_1_EDH, edh_summary, main, per_task_table, seed_layout_table
-from harness.metrics import EpisodeOutcome, aggregate
+from harness.drive.metrics import EpisodeOutcome, aggregate
 
 
 def _outcome(
@@ -91,8 +91,9 @@ def test_two_instances_end_to_end_write_every_reported_field(tmp_path: Path) -> 
     assert main(["--n", "2", "--workers", "2", "--run-dir", str(run_dir), "--out", str(out)]) == 0
 
     report = json.loads(out.read_text())
-    assert report["bench"] == "edh" and report["command"].startswith("python -m bench.edh --n 2")
-    assert report["commit"] and report["machine"]["cores"] >= 1
+    stamp = report["stamp"]
+    assert stamp["bench"] == "edh" and stamp["command"].startswith("python -m bench.edh --n 2")
+    assert stamp["commit"] and stamp["machine"]["cores"] >= 1
     assert report["agent"]["perception"] == "oracle" and report["planner_checkpoint"]["recipe"]
     overall = report["result"]["overall"]
     assert overall["n"] + len(report["result"]["unavailable"]) == 2

@@ -24,4 +24,4 @@ def test_the_bench_replays_as_recorded_and_loses_nothing_with_workers_killed(
     assert report["bar"]["errors_all_runs"] == 0
     assert report["bar"]["every_episode_as_recorded"] is True
     assert fault["sessions_lost"] == 0 and fault["workers_killed"] == 2 and fault["workers_at_end"] == 2
-    assert report["commit"] and report["command"].startswith("python -m bench.load_fault")
+    assert report["stamp"]["commit"] and report["stamp"]["command"].startswith("python -m bench.load_fault")

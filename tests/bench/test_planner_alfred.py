@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from bench.planner_alfred import SPLIT, alfred_config, changed_episodes
-from harness.evaluate import EPISODES_DIR, EvalConfig, episode_file_name, episode_for, evaluate
-from harness.service import running_service
+from harness.drive.evaluate import EPISODES_DIR, EvalConfig, episode_file_name, episode_for, evaluate
+from harness.drive.service import running_service
 from symbolic.thor import ALFRED_HFOV_DEG
 
 SMALL_CAMERA_SIDE = 100  # pixels: the test reads episode files, it does not judge the agent

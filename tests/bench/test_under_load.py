@@ -25,4 +25,4 @@ def test_every_bar_is_measured_in_one_run_without_errors(redis_url: str, tmp_pat
     assert report["throughput"]["one_worker"]["errors"] == 0 == report["throughput"]["two_workers"]["errors"]
     assert report["planner"]["alone"]["planner_call"]["n"] == 2
     assert report["planner"]["while_sessions_step"]["errors"] == 0
-    assert report["commit"] and report["command"].startswith("python -m bench.under_load")
+    assert report["stamp"]["commit"] and report["stamp"]["command"].startswith("python -m bench.under_load")

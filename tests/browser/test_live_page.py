@@ -19,9 +19,10 @@ import httpx
 import pytest
 from browser_support import CHROMIUM, CHROMIUM_ARGS
 
-from harness.client import AgentClient
-from harness.runner import ActionRecord, RunnerOptions, generated_tfd_episode, run_episode
-from harness.service import running_service
+from harness.drive.client import AgentClient
+from harness.drive.generated import generated_tfd_episode
+from harness.drive.runner import ActionRecord, RunnerOptions, run_episode
+from harness.drive.service import running_service
 
 SCREENSHOT = Path(__file__).resolve().parents[2] / "out" / "live_page.png"
 MAX_STEPS = 60

@@ -19,7 +19,18 @@ import cv2
 import numpy as np
 import pytest
 
-from harness.alfred_data import (
+from harness.expert.navigation import SightOracle
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.tasks.alfred import alfred_task_from_traj
+from harness.world.alfred.build import (
+    AlfredWorldReport,
+    alfred_task_world_pairs,
+    alfred_world,
+    build_alfred_world,
+)
+from harness.world.alfred.data import (
     ALFRED_SPLITS,
     find_trajectory,
     load_alfred_trajectories,
@@ -27,15 +38,9 @@ from harness.alfred_data import (
     room_kind,
     scene_of,
 )
-from harness.alfred_world import AlfredWorldReport, alfred_task_world_pairs, alfred_world, build_alfred_world
-from harness.camera import CameraSpec
-from harness.catalog import load_catalog
-from harness.expert.navigation import SightOracle
-from harness.invariants import check_world
-from harness.navgrid import reachable_grid
-from harness.render import Renderer
-from harness.tasks.alfred import alfred_task_from_traj
-from harness.world import FIRST_OBJECT_ID, World, make_object_id
+from harness.world.catalog import load_catalog
+from harness.world.invariants import check_world
+from harness.world.model import FIRST_OBJECT_ID, World, WorldObject, make_object_id
 from symbolic.ontology import load_ontology
 from symbolic.thor import ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, GRID_STEP_M
 
@@ -285,36 +290,46 @@ def test_what_lies_in_a_sink_basin_shows_from_above(task_id: str, shared_data_di
         assert sight.can_act_on(world, basin.object_id, thorough=True), basin.object_id
 
 
-@pytest.mark.parametrize(
-    "task_id",
-    [
-        "trial_T20190908_042713_075616",  # FloorPlan1: a walkway point off a corner held the fridge back
-        "trial_T20190909_012524_159092",  # FloorPlan18: it had to slide sideways to meet the walkway
-    ],
-)
-def test_a_fridge_door_opens_onto_floor_and_what_is_in_it_shows(task_id: str, shared_data_dir: Path) -> None:
-    """The strip in front of a fridge that ALFRED's grid does not list used to become a wall right before its
-    door, hiding everything in it; the fridge now comes forward to the walkway."""
-    world = alfred_world(find_trajectory(task_id, shared_data_dir), shared_data_dir)
-    (fridge,) = world.of_type("Fridge")
-    fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[fridge.facing]
-    (x0, _, z0), (x1, _, z1) = fridge.min_corner, fridge.max_corner
+def _assert_floor_in_front(world: World, piece: WorldObject) -> None:
+    """Floor (not wall) 10 cm in front of the piece's front, near both ends and in the middle."""
+    fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[piece.facing]
+    (x0, _, z0), (x1, _, z1) = piece.min_corner, piece.max_corner
     for t in (0.1, 0.5, 0.9):
         x = (x1 + 0.1 if fx > 0 else x0 - 0.1) if fx else x0 + t * (x1 - x0)
         z = (z1 + 0.1 if fz > 0 else z0 - 0.1) if fz else z0 + t * (z1 - z0)
         assert world.room.contains(x, z), (x, z)
+
+
+def _unseen(world: World, objects: Iterable[WorldObject]) -> list[str]:
+    """Ids of the objects the expert cannot act on from any reachable pose (ALFRED's camera, a third size)."""
     camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
     sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
-    inside = world.children(fridge.object_id)
-    hidden = [o.object_id for o in inside if not sight.can_act_on(world, o.object_id, thorough=True)]
+    return [o.object_id for o in objects if not sight.can_act_on(world, o.object_id, thorough=True)]
+
+
+@pytest.mark.parametrize(
+    "task_id",
+    [
+        "trial_T20190908_042713_075616",  # FloorPlan1: a walkway point lies off the fridge's corner
+        "trial_T20190909_012524_159092",  # FloorPlan18: the fridge slides sideways to meet the walkway
+    ],
+)
+def test_a_fridge_door_opens_onto_floor_and_what_is_in_it_shows(task_id: str, shared_data_dir: Path) -> None:
+    """The fridge comes forward to the walkway: the strip in front of it that ALFRED's grid does not list
+    would otherwise become a wall right before its door, hiding everything in it."""
+    world = alfred_world(find_trajectory(task_id, shared_data_dir), shared_data_dir)
+    (fridge,) = world.of_type("Fridge")
+    _assert_floor_in_front(world, fridge)
+    hidden = _unseen(world, world.children(fridge.object_id))
     assert not hidden, hidden
 
 
 def test_every_fridge_door_faces_where_alfreds_planner_opens_it(
     valid_seen: tuple[dict[str, Any], ...], shared_data_dir: Path
 ) -> None:
-    """The planner stands before a fridge's door to open it (FloorPlan21's fridge faced a wall 45 cm away,
-    FloorPlan4's the wrong way: what was chilled in them could not be seen)."""
+    """The planner stands before a fridge's door to open it, so the door faces there (facing the walkway
+    instead, FloorPlan21's fridge faces a wall 45 cm away and FloorPlan4's the wrong way, and what is
+    chilled in them cannot be seen)."""
     plans = {t["scene"]["floor_plan"]: t for t in valid_seen}
     for name, traj in sorted(plans.items()):
         spots = [s for s in load_floor_plan(name, shared_data_dir).receptacles if s.object_type == "Fridge"]
@@ -327,40 +342,32 @@ def test_every_fridge_door_faces_where_alfreds_planner_opens_it(
 
 
 def test_no_wall_pillar_hides_the_microwave_in_floorplan14(shared_data_dir: Path) -> None:
-    """Cells inside a kitchen that ALFRED's grid does not list became walls up to the ceiling, one right
-    before FloorPlan14's microwave; AI2-THOR has counter there, so they are counter-height blocks now, and the
-    apple ALFRED left in the microwave shows when it is open."""
+    """Cells inside a kitchen that ALFRED's grid does not list are counter-height blocks (AI2-THOR has
+    counter there), not walls up to the ceiling, so the one right before FloorPlan14's microwave leaves the
+    apple ALFRED left in it in view when it is open."""
     world = alfred_world(find_trajectory("trial_T20190909_044933_815840", shared_data_dir), shared_data_dir)
     holes = _interior_non_floor(world)
     assert not holes.any(), np.argwhere(holes)
     (microwave,) = world.of_type("Microwave")
-    camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
-    sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
     inside = world.children(microwave.object_id)
-    assert inside and all(sight.can_act_on(world, o.object_id, thorough=True) for o in inside)
+    assert inside and not _unseen(world, inside)
 
 
 def test_a_bed_gives_up_its_head_end_to_meet_the_walkway(shared_data_dir: Path) -> None:
-    """FloorPlan302: a side table at the bed's head held the whole bed back from the walkway, the strip left
-    became a wall and the books ALFRED left on the bed could not be seen; the bed now gives up that end."""
+    """FloorPlan302: a side table stands at the bed's head; the bed gives up that end to come forward to
+    the walkway, rather than stay back and leave a strip that becomes a wall hiding the books ALFRED left
+    on it."""
     world = alfred_world(find_trajectory("trial_T20190906_181233_363875", shared_data_dir), shared_data_dir)
     (bed,) = world.of_type("Bed")
-    fx, fz = {0: (0, 1), 90: (1, 0), 180: (0, -1), 270: (-1, 0)}[bed.facing]
-    (x0, _, z0), (x1, _, z1) = bed.min_corner, bed.max_corner
-    for t in (0.1, 0.5, 0.9):
-        x = (x1 + 0.1 if fx > 0 else x0 - 0.1) if fx else x0 + t * (x1 - x0)
-        z = (z1 + 0.1 if fz > 0 else z0 - 0.1) if fz else z0 + t * (z1 - z0)
-        assert world.room.contains(x, z), (x, z)
-    camera = CameraSpec(ALFRED_IMAGE_SIDE // 3, ALFRED_IMAGE_SIDE // 3, ALFRED_HFOV_DEG)
-    sight = SightOracle(Renderer(camera), camera, 15, 0.01, 16)
+    _assert_floor_in_front(world, bed)
     books = [o for o in world.children(bed.object_id) if o.object_type == "Book"]
-    assert books and all(sight.can_act_on(world, o.object_id, thorough=True) for o in books)
+    assert books and not _unseen(world, books)
 
 
 def test_an_object_at_counter_height_over_a_low_unit_rests_on_a_counter(shared_data_dir: Path) -> None:
     """FloorPlan7: ALFRED's pan stands at 0.96 m over a base unit 0.53 m high (AI2-THOR's counter runs over
-    it, the data does not place that part); it went into the unit, out of sight. A counter segment now lies
-    on the unit, and the pan rests on it."""
+    it, the data does not place that part); a counter segment lies on the unit and the pan rests on it,
+    rather than inside the unit, out of sight."""
     world = alfred_world(find_trajectory("trial_T20190908_232648_241836", shared_data_dir), shared_data_dir)
     pan = world.objects["Pan|+00.97|+00.96|-01.43"]
     assert pan.parent_id is not None and world.objects[pan.parent_id].object_type == "CounterTop"

@@ -13,18 +13,18 @@ from pathlib import Path
 
 import pytest
 
-from harness.camera import CameraSpec
 from harness.commander.bot import DONE_TEXT, Commander, InfoLevel
 from harness.commander.episode import obey, run_obedient_episode
 from harness.commander.tools import CommanderTools
+from harness.drive.generated import generated_tfd_episode
+from harness.drive.service import REPO_ROOT, RunningService, running_service
 from harness.episodes.model import Episode
 from harness.episodes.teach_format import replay
-from harness.navgrid import reachable_grid
-from harness.runner import generated_tfd_episode
-from harness.service import REPO_ROOT, RunningService, running_service
-from harness.simulator import Simulator
+from harness.render.camera import CameraSpec
+from harness.sim.navgrid import reachable_grid
+from harness.sim.simulator import Simulator
 from harness.tasks.teach import TaskInstance
-from harness.world import World
+from harness.world.model import World
 from symbolic.commands import CommandItem, parse_command
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.thor import TEACH_HFOV_DEG, TEACH_LOOK_STEP_DEG
@@ -269,7 +269,7 @@ def test_a_tatc_episode_with_the_commander_in_its_own_process(
 def test_the_commander_process_loads_none_of_the_follower() -> None:
     """The commander reaches the follower only over HTTP: its process imports no agent, app or models."""
     probe = (
-        "import sys, harness.commander.cli, harness.commander.episode, harness.evaluate; "
+        "import sys, harness.commander.cli, harness.commander.episode, harness.drive.evaluate; "
         "print(sorted({m.split('.')[0] for m in sys.modules} & {'agent', 'app', 'models', 'torch'}))"
     )
     done = subprocess.run(

@@ -31,7 +31,7 @@ from harness.episodes.phrases import (
 )
 from harness.tasks.sampling import parameter_space
 from harness.tasks.teach import BENCHMARK_TASKS, make_task_instance
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 from symbolic.ontology import UnknownObjectType, load_ontology
 
 

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from PIL import Image, ImageFont
 
-from harness.demo import MapRecordingClient, episode_pictures
-from harness.gif import (
+from harness.drive.demo import MapRecordingClient, episode_pictures
+from harness.drive.generated import generated_tfd_episode
+from harness.drive.gif import (
     CAPTION_LINE_PX,
     CLICK_COLOUR,
     GAP_PX,
@@ -21,8 +22,8 @@ from harness.gif import (
     fitted_caption,
     write_episode_gif,
 )
-from harness.runner import EpisodeRun, RunnerOptions, generated_tfd_episode, run_episode
-from harness.service import RunningService, running_service
+from harness.drive.runner import EpisodeRun, RunnerOptions, run_episode
+from harness.drive.service import RunningService, running_service
 
 MAGENTA = np.array(CLICK_COLOUR)
 

@@ -9,7 +9,6 @@ from typing import Any
 
 import pytest
 
-from harness.camera import CameraSpec
 from harness.episodes.generate import main
 from harness.episodes.teach_format import (
     ACTION_KEYS,
@@ -31,8 +30,9 @@ from harness.episodes.teach_format import (
     read_game,
     read_instance,
 )
-from harness.simulator import Simulator
-from harness.splits import SPLITS, TRAIN_WORLDS, UNSEEN_WORLDS
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
+from harness.world.splits import SPLITS, TRAIN_WORLDS, UNSEEN_WORLDS
 from symbolic.data_dir import default_data_dir
 from symbolic.subgoals import subgoals_from_teach_actions, to_teach_words
 

@@ -14,7 +14,7 @@ from typing import Literal
 
 import pytest
 
-from harness.evaluate import (
+from harness.drive.evaluate import (
     EPISODES_DIR,
     METRICS_FILE,
     EvalConfig,
@@ -23,8 +23,8 @@ from harness.evaluate import (
     prepare_run,
     run_slot,
 )
-from harness.runner import session_payload
-from harness.service import REPO_ROOT, RunningService, running_service
+from harness.drive.runner import session_payload
+from harness.drive.service import REPO_ROOT, RunningService, running_service
 from harness.tasks.alfred import AlfredTask
 from symbolic.thor import ALFRED_HFOV_DEG
 
@@ -214,9 +214,9 @@ def test_alfred_fridge_whose_only_known_floor_in_reach_holds_no_lattice_node_is_
 ) -> None:
     """ALFRED valid_seen slot 11 (cool an apple, put it in the bin), the expert's subgoals: the fridge
     stands at the end of a corridor between a wall and the island, and the only known floor within reach
-    of it, beyond the wall, held no node of the agent's lattice, so the navigator could never arrive and
-    the fridge counted as unreachable. The agent explored 415 steps and never reached it; now the unseen
-    floor of the corridor is the goal, and the agent walks it and puts the apple in."""
+    of it, beyond the wall, holds no node of the agent's lattice, so that floor cannot be the goal (the
+    agent would explore without ever arriving); the unseen floor of the corridor is, and the agent walks it
+    and puts the apple in."""
     config = _alfred_valid_seen(shared_data_dir, 12, "oracle")
 
     record = run_slot(config, 11, service.base_url)
@@ -236,9 +236,9 @@ def test_alfred_night_stand_planned_as_a_side_table_the_bedroom_lacks_is_its_dre
     service: RunningService, shared_data_dir: Path
 ) -> None:
     """ALFRED valid_seen slot 6, "Move two alarm clocks from the desk to the night stand.", read by the
-    model planner: it writes SideTable, and the bedroom's night stand is a Dresser. The agent searched for
-    a side table until it gave up and then stopped with the first clock in hand; now the Dresser it mapped
-    takes the side table's place in the plan and both clocks go on it."""
+    model planner: it writes SideTable, and the bedroom's night stand is a Dresser. The Dresser the agent
+    mapped takes the side table's place in the plan (a search for a side table would give up with the
+    first clock in hand), and both clocks go on it."""
     config = _alfred_valid_seen(shared_data_dir, 7, "model")
 
     record = run_slot(config, 6, service.base_url)

@@ -14,8 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.alfred_world import alfred_task_world_pairs
-from harness.camera import CameraPose, CameraSpec
 from harness.expert import ExpertConfig, ExpertTrajectory, PlanError, plan_task, run_expert
 from harness.expert.navigation import (
     BodyState,
@@ -31,13 +29,16 @@ from harness.expert.report import (
     run_expert_report,
     summarize,
 )
-from harness.render import Frame, Renderer
-from harness.simulator import Simulator
+from harness.render.camera import CameraPose, CameraSpec
+from harness.render.renderer import Frame, Renderer
+from harness.sim.simulator import Simulator
 from harness.tasks.alfred import check_alfred
 from harness.tasks.sampling import sample_teach_task
 from harness.tasks.teach import BENCHMARK_TASKS, TaskInstance, check_task, make_task_instance
-from harness.world import AgentState, Room, RoomKind, World, WorldObject, make_object_id
-from harness.worldgen import WorldGenConfig, generate_world
+from harness.world.alfred.build import alfred_task_world_pairs
+from harness.world.model import AgentState, Room, RoomKind, World, WorldObject, make_object_id
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
 from symbolic.subgoals import SubgoalAction, subgoals_from_teach_actions
 
 FAST = ExpertConfig(camera=CameraSpec(300, 300, 90.0))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from harness.metrics import EpisodeOutcome, aggregate, episode_metrics, failure_histogram
+from harness.drive.metrics import EpisodeOutcome, aggregate, episode_metrics, failure_histogram
 
 
 def outcome(**fields: object) -> EpisodeOutcome:

@@ -8,11 +8,11 @@ import itertools
 import numpy as np
 import pytest
 
-from harness.appearance import natural_colour, type_colour, type_colours
-from harness.camera import CameraSpec
-from harness.palette import assign_colours, colour_distance, room_groups
-from harness.render import Renderer
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.render.appearance import natural_colour, type_colour, type_colours
+from harness.render.camera import CameraSpec
+from harness.render.palette import assign_colours, colour_distance, room_groups
+from harness.render.renderer import Renderer
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 from symbolic.ontology import load_ontology
 
 
@@ -93,8 +93,8 @@ def test_rendered_cutlery_and_the_sink_look_different() -> None:
 
 def test_things_that_get_dirty_are_never_brown_like_their_dirt() -> None:
     """Dirt is drawn as brown blotches; a brown mug would look dirty to any stain cue (the agent's too)."""
-    from harness.appearance import DIRT_COLOUR, DISH_MAX_BROWNNESS
-    from harness.palette import brownness
+    from harness.render.appearance import DIRT_COLOUR, DISH_MAX_BROWNNESS
+    from harness.render.palette import brownness
 
     ontology = load_ontology()
     dishes = [t for t in ontology.types if ontology.get(t).dirtyable]

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness import physics
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.sim import physics
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 from symbolic.ontology import load_ontology
 
 ONTOLOGY = load_ontology()

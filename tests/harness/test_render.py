@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from harness.camera import CameraPose, CameraSpec, pixel_to_world, world_to_pixel
-from harness.geometry import wall_boxes
-from harness.render import Frame, Renderer
-from harness.world import STRUCTURE_IDS, AgentState, Room, World, WorldObject, make_object_id
+from harness.render.camera import CameraPose, CameraSpec, pixel_to_world, world_to_pixel
+from harness.render.geometry import wall_boxes
+from harness.render.renderer import Frame, Renderer
+from harness.world.model import STRUCTURE_IDS, AgentState, Room, World, WorldObject, make_object_id
 from symbolic.thor import CAMERA_HEIGHT_M
 
 EYE = CAMERA_HEIGHT_M

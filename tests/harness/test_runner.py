@@ -1,7 +1,7 @@
 """The HTTP runner: frames encoded losslessly, progress per subgoal, and whole episodes over a real service.
 
-The service runs as a subprocess (``harness.service.running_service``), started once for this module, and
-the runner drives it over TCP exactly as ``python -m harness run`` does.
+The service runs as a subprocess (``harness.drive.service.running_service``), started once for this module,
+and the runner drives it over TCP exactly as ``python -m harness run`` does.
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ import pytest
 
 from agent.geometry import Camera
 from agent.perception.decode import decode_observation
-from harness.camera import CameraSpec
-from harness.client import (
+from harness.drive.client import (
     ARRAY_FRAMES,
     AgentClient,
     FrameEncoding,
@@ -30,18 +29,13 @@ from harness.client import (
     observation_parts,
     pose_of,
 )
+from harness.drive.generated import generated_episode, generated_tfd_episode
+from harness.drive.runner import PlanProgress, RunnerOptions, run_episode, session_payload
+from harness.drive.service import RunningService, running_service
 from harness.episodes.model import Episode
-from harness.runner import (
-    PlanProgress,
-    RunnerOptions,
-    generated_episode,
-    generated_tfd_episode,
-    run_episode,
-    session_payload,
-)
-from harness.service import RunningService, running_service
-from harness.simulator import Simulator
-from harness.worldgen import generate_kitchen
+from harness.render.camera import CameraSpec
+from harness.sim.simulator import Simulator
+from harness.world.procedural.generate import generate_kitchen
 
 CAMERA = CameraSpec(96, 96, 90.0)
 SHORT_EPISODE_INDEX = 0

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from harness.service import REPO_ROOT
+from harness.drive.service import REPO_ROOT
 
 STARTER = """
 import time
-from harness.service import running_service
+from harness.drive.service import running_service
 with running_service() as service:
     print(service.process.pid, flush=True)
     time.sleep(600)

@@ -14,14 +14,14 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from harness.camera import CameraPose, CameraSpec, pixel_to_world
-from harness.clicks import ClickHit, click_pixel, click_point_of, click_radius_px, resolve_click
-from harness.failures import FailureReason
-from harness.invariants import check_world
-from harness.render import Renderer
-from harness.simulator import ActionResult, Simulator, canonical_action
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
-from harness.worldgen import generate_kitchen
+from harness.render.camera import CameraPose, CameraSpec, pixel_to_world
+from harness.render.renderer import Renderer
+from harness.sim.clicks import ClickHit, click_pixel, click_point_of, click_radius_px, resolve_click
+from harness.sim.failures import FailureReason
+from harness.sim.simulator import ActionResult, Simulator, canonical_action
+from harness.world.invariants import check_world
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
+from harness.world.procedural.generate import generate_kitchen
 from symbolic.thor import TEACH_DRIVER_ACTIONS
 
 CAMERA = CameraSpec(300, 300, 90.0)

@@ -17,7 +17,7 @@ from harness.tasks.alfred import (
     alfred_task_from_traj,
     check_alfred,
 )
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 
 
 class House:

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from harness import physics
+from harness.sim import physics
 from harness.tasks.sampling import (
     feasible_teach_tasks,
     is_feasible,
@@ -19,8 +19,9 @@ from harness.tasks.sampling import (
     task_needs,
 )
 from harness.tasks.teach import BENCHMARK_TASKS, TaskInstance, check_task, make_task_instance
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 from symbolic.ontology import load_ontology
+from symbolic.registry import UnknownName
 
 
 def build_kitchen(*extra: str) -> World:
@@ -53,38 +54,8 @@ def build_kitchen(*extra: str) -> World:
     return World("sampling", room, objects, AgentState(x=0.625, z=1.625))
 
 
-BREAKFAST_COFFEE_TOAST = (
-    "1",
-    "1",
-    "0",
-    "Plate",
-    "0",
-    "Plate",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "DiningTable",
-)
-BREAKFAST_TOAST_POTATO = (
-    "0",
-    "1",
-    "1",
-    "Plate",
-    "0",
-    "Plate",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "0",
-    "CounterTop",
-)
+BREAKFAST_COFFEE_TOAST = ("1", "1", "0", "Plate", "0", "Plate", *["0"] * 7, "DiningTable")
+BREAKFAST_TOAST_POTATO = ("0", "1", "1", "Plate", "0", "Plate", *["0"] * 7, "CounterTop")
 
 
 @pytest.mark.parametrize(
@@ -218,5 +189,5 @@ def test_every_boil_x_we_pose_boils_in_a_pot_of_water_on_a_lit_burner(params: tu
 
 
 def test_unknown_task_has_no_parameter_space() -> None:
-    with pytest.raises(KeyError, match="known: .*'Water Plant'"):
+    with pytest.raises(UnknownName, match="unknown TEACh task 'Make Pancakes'; known: .*Water Plant"):
         parameter_space("Make Pancakes")

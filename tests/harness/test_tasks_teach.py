@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from harness.tasks.teach import GoalReport, TaskInstance, check_task, make_task_instance
-from harness.world import AgentState, Room, World, WorldObject, make_object_id
+from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 
 
 class Kitchen:

@@ -12,27 +12,26 @@ import cv2
 import numpy as np
 import pytest
 
-from harness.camera import CameraSpec
-from harness.catalog import load_catalog
 from harness.expert.navigation import SightOracle
-from harness.invariants import check_world, component_count, seen_through_front
-from harness.navgrid import reachable_grid
-from harness.physics import encloses
-from harness.render import Renderer
-from harness.world import AgentState, Room, RoomKind, World, WorldObject, make_object_id
-from harness.worldgen import (
-    STRATEGIES,
-    WorldGenConfig,
-    WorldGenError,
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.sim.physics import encloses
+from harness.world.catalog import load_catalog
+from harness.world.invariants import check_world, component_count, seen_through_front
+from harness.world.model import AgentState, Room, RoomKind, World, WorldObject, make_object_id
+from harness.world.procedural.config import WorldGenConfig, WorldGenError
+from harness.world.procedural.furniture import STRATEGIES
+from harness.world.procedural.generate import (
     generate_bathroom,
     generate_bedroom,
     generate_kitchen,
     generate_living_room,
     generate_world,
-    strategy,
-    walls_of,
 )
+from harness.world.walls import walls_of
 from symbolic.ontology import UnknownObjectType, load_ontology
+from symbolic.registry import UnknownName
 from symbolic.thor import GRID_STEP_M, TEACH_HFOV_DEG
 
 KINDS: tuple[RoomKind, ...] = get_args(RoomKind)
@@ -449,8 +448,8 @@ def test_catalog_names_known_types_strategies_and_receptacles() -> None:
 
 
 def test_unknown_strategy_lists_known_ones() -> None:
-    with pytest.raises(KeyError, match="unknown placement strategy 'floating'.*counter_run"):
-        strategy("floating")
+    with pytest.raises(UnknownName, match="unknown placement strategy 'floating'.*counter_run"):
+        STRATEGIES.get("floating")
 
 
 # ------------------------------------------------------------------------------------- the world checks

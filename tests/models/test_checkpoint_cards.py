@@ -22,6 +22,9 @@ CHECKPOINTS = Path(models.__file__).resolve().parent / "checkpoints"
 NAMES = ("planner", "depth", "segmentation", "goal_transformer")
 MACHINE_PATH = re.compile(r'"(/work|/tmp|/root|/home)/')
 CARD_BODY_MAX_LINES = 60  # one screen, below the metadata block
+# What made the model and how well it does: a heading each (or one of its alternatives) on every card.
+UP_FRONT = (("## Data",), ("## Command", "## Training"), ("## Metrics",))
+REPO_PATH = re.compile(r"`((?:agent|app|bench|harness|models|symbolic|tests)/[\w/.-]*)`")
 
 
 def front_matter_and_body(card: str) -> tuple[dict[str, object], str]:
@@ -43,6 +46,16 @@ def test_each_checkpoint_has_a_hub_card_with_metadata(name: str) -> None:
     lines = body.strip().splitlines()
     assert len(lines) <= CARD_BODY_MAX_LINES, f"{name}/README.md is {len(lines)} lines below its metadata"
     assert (folder / "HISTORY.md").is_file()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_each_card_says_the_data_command_and_metrics_and_names_only_files_that_exist(name: str) -> None:
+    _, body = front_matter_and_body((CHECKPOINTS / name / "README.md").read_text(encoding="utf-8"))
+    headings = [line.strip() for line in body.splitlines() if line.startswith("## ")]
+    for options in UP_FRONT:
+        assert set(options) & set(headings), f"{name}/README.md has no {' or '.join(options)}"
+    missing = [path for path in REPO_PATH.findall(body) if not (REPO_ROOT / path).exists()]
+    assert not missing, f"{name}/README.md names files that are not in the repository: {missing}"
 
 
 @pytest.mark.parametrize("name", NAMES)

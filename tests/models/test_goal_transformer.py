@@ -14,6 +14,7 @@ from agent.exploration_gt import GoalExplorerConfig, GoalTransformerExplorer, pi
 from agent.geometry import Pose
 from agent.mapping import GridFrame
 from agent.navigation.base import NavGrids
+from agent.navigation.exploration import ExploreInput
 from harness.perception_data import EXPERT_ACTIONS, shortest_search, successor
 from models.goal_transformer.dataset import collate, load_episodes
 from models.goal_transformer.encoder import FEATURE_DIM, load_frame_encoder
@@ -157,11 +158,13 @@ def test_explorer_keeps_one_history_per_target_and_answers_motions():
     pose = Pose(2.5, 2.5, 0.0, 30.0)
     for _ in range(3):
         decision = explorer.next_action(
-            grids, frame, pose, rgb=rgb, subgoals=[("Navigate", "Mug")], last_action_success=True
+            ExploreInput(
+                grids, frame, pose, rgb=rgb, subgoals=[("Navigate", "Mug")], last_action_success=True
+            )
         )
         assert decision.action in GT_ACTIONS and decision.reason == "explore"
     assert explorer._search is not None and len(explorer._search.features) == 3
     explorer.next_action(
-        grids, frame, pose, rgb=rgb, subgoals=[("Navigate", "Apple")], last_action_success=True
+        ExploreInput(grids, frame, pose, rgb=rgb, subgoals=[("Navigate", "Apple")], last_action_success=True)
     )
     assert len(explorer._search.features) == 1 and explorer._search.previous == [None]

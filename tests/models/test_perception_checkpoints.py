@@ -12,12 +12,13 @@ from agent.geometry import Camera
 from agent.perception import OraclePerception, make_perception
 from agent.perception.base import Observation
 from agent.perception.learned import LearnedConfig, LearnedPerception
-from harness.camera import CameraSpec
-from harness.navgrid import reachable_grid
 from harness.perception_data import render_frames
-from harness.render import Renderer
-from harness.splits import world_seed
-from harness.worldgen import WorldGenConfig, generate_world
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
+from harness.world.splits import world_seed
 from models.goal_transformer.model import load_goal_transformer
 from models.perception.dataset import frame_names, read_depth_m, read_instances, read_rgb
 from symbolic.ontology import load_ontology

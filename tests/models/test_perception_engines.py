@@ -13,12 +13,13 @@ import torch
 from agent.geometry import Camera
 from agent.perception.base import Observation
 from agent.perception.learned import LearnedConfig, LearnedModels, LearnedPerception, load_learned_models
-from harness.camera import CameraSpec
-from harness.navgrid import reachable_grid
-from harness.render import Renderer
-from harness.splits import world_seed
-from harness.world import RoomKind
-from harness.worldgen import WorldGenConfig, generate_world
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Renderer
+from harness.sim.navgrid import reachable_grid
+from harness.world.model import RoomKind
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
+from harness.world.splits import world_seed
 from models.perception.depth import DepthBins
 from models.perception.engine import PerceptionEngine, TorchEngine, make_engine, resolve
 from models.perception.network import PerceptionNet, PerceptionNetConfig, inference_dtype

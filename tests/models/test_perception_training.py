@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,17 +15,35 @@ from agent.geometry import Camera
 from agent.perception import PERCEPTION_BACKENDS, ObservationError, OraclePerception, make_perception
 from agent.perception.base import Observation
 from agent.perception.learned import LearnedConfig, LearnedModels, LearnedPerception
-from harness.camera import CameraSpec
 from harness.perception_data import render_frames
-from harness.render import Frame, Renderer
-from harness.worldgen import WorldGenConfig, generate_world
+from harness.render.camera import CameraSpec
+from harness.render.renderer import Frame, Renderer
+from harness.world.procedural.config import WorldGenConfig
+from harness.world.procedural.generate import generate_world
 from models.perception.__main__ import main as perception_cli
 from models.perception.dataset import FrameArrays, load_frames
 from models.perception.network import load_checkpoint, read_info
 from models.perception.train import STATE_FILE, TrainConfig, train
 from symbolic.ontology import load_ontology
+from symbolic.registry import UnknownName
 
 TINY = (4, 4, 4, 4, 4)
+
+
+def tiny_config(task: str, frames: Path, folder: Path, **changes: Any) -> TrainConfig:
+    """A U-Net of width 4 trained on 64 px frames, two at a time on one thread; its checkpoint goes to
+    ``folder/ckpt`` and its run state to ``folder/run``."""
+    fields: dict[str, Any] = {
+        "task": task,
+        "frames": frames,
+        "out": folder / "ckpt",
+        "run_dir": folder / "run",
+        "side": 64,
+        "widths": TINY,
+        "batch": 2,
+        "threads": 1,
+    }
+    return TrainConfig(**(fields | changes))
 
 
 @pytest.fixture(scope="module")
@@ -40,19 +59,8 @@ def tiny_models(frames_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> d
     out = {}
     for task in ("depth", "segmentation"):
         base = tmp_path_factory.mktemp(task)
-        config = TrainConfig(
-            task=task,  # type: ignore[arg-type]
-            frames=frames_dir,
-            out=base / "ckpt",
-            run_dir=base / "run",
-            valid_frames=frames_dir,
-            side=64,
-            widths=TINY,
-            steps=3,
-            batch=2,
-            save_every=1,
-            threads=1,
-            eval_side=64,
+        config = tiny_config(
+            task, frames_dir, base, valid_frames=frames_dir, steps=3, save_every=1, eval_side=64
         )
         out[task] = train(config)
     return out
@@ -62,19 +70,8 @@ def test_a_run_can_start_from_an_exported_checkpoint(
     frames_dir: Path, tiny_models: dict[str, Path], tmp_path: Path
 ) -> None:
     """Fine-tuning on new frames: step 0 of the new run has the exported weights (lr 0 keeps them)."""
-    config = TrainConfig(
-        task="depth",
-        frames=frames_dir,
-        out=tmp_path / "ckpt",
-        run_dir=tmp_path / "run",
-        side=64,
-        widths=TINY,
-        steps=1,
-        batch=2,
-        lr=0.0,
-        warmup=1,
-        threads=1,
-        init_from=tiny_models["depth"],
+    config = tiny_config(
+        "depth", frames_dir, tmp_path, steps=1, lr=0.0, warmup=1, init_from=tiny_models["depth"]
     )
     tuned = load_checkpoint(train(config))
     source = load_checkpoint(tiny_models["depth"])
@@ -90,37 +87,28 @@ def test_adding_the_colour_branch_starts_from_the_same_network_and_then_learns(
     """A segmentation U-Net fine-tuned with the colour branch predicts what it did until the branch trains;
     the exported checkpoint records the branch and loads with it."""
     source = load_checkpoint(tiny_models["segmentation"])
-    base = dict(
-        task="segmentation",
-        frames=frames_dir,
-        side=64,
-        widths=TINY,
-        batch=2,
-        warmup=1,
-        threads=1,
-        init_from=tiny_models["segmentation"],
-        colour_hidden=8,
-    )
+    base: dict[str, Any] = {"warmup": 1, "init_from": tiny_models["segmentation"], "colour_hidden": 8}
     frozen = load_checkpoint(
-        train(TrainConfig(**base, out=tmp_path / "a", run_dir=tmp_path / "ra", steps=1, lr=0.0))  # type: ignore[arg-type]
+        train(tiny_config("segmentation", frames_dir, tmp_path / "a", **base, steps=1, lr=0.0))
     )
     assert frozen.config.colour_hidden == 8 and frozen.colour is not None
     rgb = torch.from_numpy(load_frames(frames_dir, 64, use_cache=False).rgb[:2])
     with torch.inference_mode():
         torch.testing.assert_close(frozen(rgb), source(rgb), atol=1e-2, rtol=1e-2)  # fp16 export
     trained = load_checkpoint(
-        train(TrainConfig(**base, out=tmp_path / "b", run_dir=tmp_path / "rb", steps=5, lr=1e-2))  # type: ignore[arg-type]
+        train(tiny_config("segmentation", frames_dir, tmp_path / "b", **base, steps=5, lr=1e-2))
     )
     assert trained.colour is not None and bool(trained.colour.out.weight.detach().any())
     with pytest.raises(ValueError, match="colour branch of another width"):
         train(
-            TrainConfig(
-                **{**base, "init_from": tmp_path / "b", "colour_hidden": 4},
-                out=tmp_path / "c",
-                run_dir=tmp_path / "rc",
+            tiny_config(
+                "segmentation",
+                frames_dir,
+                tmp_path / "c",
+                **(base | {"init_from": tmp_path / "b" / "ckpt", "colour_hidden": 4}),
                 steps=1,
             )
-        )  # type: ignore[arg-type]
+        )
 
 
 def test_add_colour_fits_an_expert_that_names_more_pixels_and_keeps_the_unet(
@@ -236,10 +224,7 @@ def test_training_exports_a_checkpoint_that_rebuilds_itself(tiny_models: dict[st
 
 
 def test_a_second_run_resumes_from_the_saved_state(frames_dir: Path, tmp_path: Path):
-    config = TrainConfig(
-        task="depth", frames=frames_dir, out=tmp_path / "ckpt", run_dir=tmp_path / "run",
-        side=64, widths=TINY, steps=2, batch=2, save_every=1, threads=1,
-    )  # fmt: skip
+    config = tiny_config("depth", frames_dir, tmp_path, steps=2, save_every=1)
     train(config)
     state_path = tmp_path / "run" / STATE_FILE
     state = torch.load(state_path, weights_only=False)
@@ -339,7 +324,7 @@ def test_ablation_settings_take_one_half_from_the_caller(tiny_models: dict[str, 
 
 def test_learned_is_a_registered_perception_backend():
     assert set(PERCEPTION_BACKENDS) >= {"oracle", "learned", "learned_depth", "learned_segmentation"}
-    with pytest.raises(KeyError, match="learned, learned_depth, learned_segmentation, oracle"):
+    with pytest.raises(UnknownName, match="oracle, learned, learned_depth, learned_segmentation"):
         make_perception("sonar", Camera(300, 300, 60.0))
 
 

@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from harness.tasks.teach_definitions import BENCHMARK_TASKS
 from models.planner.data import (
     BuildReport,
     DatasetFiles,
@@ -29,20 +30,6 @@ from symbolic.ontology import load_ontology
 
 HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
 PHRASE_BANK = REPO_ROOT / "harness" / "episodes" / "phrases.json"
-TEACH_TASKS = {
-    "Water Plant",
-    "Coffee",
-    "Clean All X",
-    "Put All X On Y",
-    "Boil X",
-    "Plate Of Toast",
-    "N Slices Of X In Y",
-    "Put All X In One Y",
-    "N Cooked Slices Of X In Y",
-    "Sandwich",
-    "Salad",
-    "Breakfast",
-}
 
 
 def edh_instance() -> dict[str, Any]:
@@ -210,7 +197,7 @@ def test_the_step_by_step_style_can_be_capped_per_trajectory(shared_data_dir: Pa
 def test_the_handwritten_dialogues_cover_the_twelve_teach_tasks_with_valid_plans() -> None:
     examples = handwritten_examples(HANDWRITTEN, load_ontology())
     assert len(examples) == 30
-    assert {e.task_type for e in examples} == TEACH_TASKS
+    assert {e.task_type for e in examples} == set(BENCHMARK_TASKS)
     assert len({e.example_id for e in examples}) == 30
     assert all(e.target for e in examples)
 

@@ -226,9 +226,9 @@ def test_a_planner_with_a_plan_vocabulary_writes_only_whole_subgoals(tmp_path: P
     """Even untrained, beam search held to the plan grammar writes (action, type) pairs and stops in
     the decoder's position table."""
 
-    from models.planner.config import get_recipe
+    from models.planner.config import RECIPES
 
-    recipe = get_recipe("minilm-encdec")
+    recipe = RECIPES.get("minilm-encdec")
     recipe = replace(
         recipe,
         train=replace(recipe.train, batch_size=2, max_steps=2, save_every=2, eval_every=0, num_threads=1),

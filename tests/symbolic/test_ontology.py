@@ -223,6 +223,28 @@ def test_inconsistent_table_fails_at_load(onto: Ontology) -> None:
         Ontology(data)
 
 
+def test_surfaces_are_kept_by_purpose_and_checked_at_load(onto: Ontology) -> None:
+    assert onto.surfaces("put_down")[0] == "CounterTop"  # the seed puts things down on the counter first
+    assert set(onto.surfaces("put_down")) <= set(onto.surfaces("spread_out"))
+    assert "Sofa" not in onto.surfaces("spare") and "Sofa" in onto.surfaces("put_down")
+    for purpose in ("put_down", "spare"):
+        assert all(onto.get(surface).receptacle for surface in onto.surfaces(purpose)), purpose
+    data = json.loads(ONTOLOGY_JSON.read_text(encoding="utf-8"))
+    data["surfaces"]["spare"]["types"].append("Countertop")
+    with pytest.raises(ValueError, match="'Countertop', which is not in its 'types'"):
+        Ontology(data)
+    del data["surfaces"]["spare"]
+    with pytest.raises(ValueError, match="'surfaces' has .*'lamp_hosts', 'put_down', 'spread_out'"):
+        Ontology(data)
+
+
+def test_liquids_and_vessels(onto: Ontology) -> None:
+    assert onto.pour_basins == {"Sink", "SinkBasin", "Bathtub", "BathtubBasin"}
+    assert onto.water_carriers[:2] == ("Cup", "Mug")
+    assert all(onto.get(carrier).fillable for carrier in onto.water_carriers)
+    assert onto.appliance_vessels == {"CoffeeMachine": "Mug"}
+
+
 def test_same_place(onto: Ontology) -> None:
     assert onto.same_place("SinkBasin", "Faucet")
     assert onto.same_place("Sink", "SinkBasin")

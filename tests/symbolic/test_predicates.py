@@ -11,6 +11,7 @@ from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
 from symbolic.predicates import (
     ACTION_PREDICATES,
+    PREDICATES,
     TASK_PREDICATES,
     Cell,
     MapView,
@@ -19,7 +20,6 @@ from symbolic.predicates import (
     can_pour,
     can_slice,
     collision,
-    get_predicate,
     ignore,
     interactive,
     is_empty,
@@ -37,6 +37,7 @@ from symbolic.predicates import (
     target,
     toggleable,
 )
+from symbolic.registry import UnknownName
 from symbolic.subgoals import Subgoal, SubgoalAction
 from symbolic.thor import INTERACTION_DISTANCE_M
 
@@ -241,6 +242,6 @@ def test_registry_names_follow_table_5() -> None:
     assert {"IsEmpty", "Observe", "Near", "Move", "Collision", "Target", "Interactive", "Ignore"} <= set(
         ACTION_PREDICATES
     )
-    assert get_predicate("Pick") is can_pick
-    with pytest.raises(KeyError, match="known: .*Collision"):
-        get_predicate("Teleport")
+    assert PREDICATES.get("Pick") is can_pick
+    with pytest.raises(UnknownName, match="known: .*Collision"):
+        PREDICATES.get("Teleport")

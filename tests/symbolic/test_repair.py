@@ -8,7 +8,8 @@ import pytest
 
 from symbolic.belief import BeliefState
 from symbolic.ontology import Ontology
-from symbolic.repair import REPAIR_RULES, RepairResult, get_rule, repair_plan
+from symbolic.registry import UnknownName
+from symbolic.repair import REPAIR_RULES, SLICE_NEEDS_KNIFE, RepairResult, repair_plan, slice_needs_knife
 from symbolic.subgoals import (
     Subgoal,
     SubgoalAction,
@@ -218,9 +219,9 @@ def test_repair_leaves_the_input_alone(onto: Ontology) -> None:
 
 
 def test_rule_registry_fails_loudly() -> None:
-    assert get_rule("slice-needs-knife") is REPAIR_RULES["slice-needs-knife"]
-    with pytest.raises(KeyError, match="known: close-after-place"):
-        get_rule("teleport")
+    assert REPAIR_RULES.get(SLICE_NEEDS_KNIFE).check is slice_needs_knife
+    with pytest.raises(UnknownName, match="known: close-after-place"):
+        REPAIR_RULES.get("teleport")
 
 
 @pytest.mark.data

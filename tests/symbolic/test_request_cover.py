@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from symbolic.ontology import load_ontology
-from symbolic.repair import RepairEvent, repair_plan
-from symbolic.request_cover import CONJUNCTION_RULE, COUNT_RULE, cover_request, cycles
+from symbolic.repair import REQUEST_CONJUNCTION, REQUEST_COUNT, RepairEvent, repair_plan
+from symbolic.request_cover import cover_request, cycles
 from symbolic.request_words import object_words, read_request
 from symbolic.subgoals import Subgoal, format_subgoals, parse_subgoals
 
@@ -25,7 +27,7 @@ def _cover(said: str, plan: str, history: str = "") -> tuple[str, list[RepairEve
 def test_a_conjoined_object_gets_the_cycle_of_the_one_the_model_planned() -> None:
     covered, events = _cover("clean a mug and a pan", CLEAN_MUG)
     assert covered == CLEAN_MUG + ", " + CLEAN_MUG.replace("Mug", "Pan")
-    assert [(e.rule, e.index, e.removed) for e in events] == [(CONJUNCTION_RULE, 6, ())]
+    assert [(e.rule, e.index, e.removed) for e in events] == [(REQUEST_CONJUNCTION, 6, ())]
     assert "Pan" in events[0].reason and "mug and a pan" in events[0].reason
     assert format_subgoals(events[0].inserted) == CLEAN_MUG.replace("Mug", "Pan")
 
@@ -35,17 +37,37 @@ def test_a_count_repeats_the_cycle_and_a_counted_conjoined_object_gets_as_many()
     covered, events = _cover("clean two plates and two cups", plate)
     cup = plate.replace("Plate", "Cup")
     assert covered == ", ".join([plate, plate, cup, cup])
-    assert [e.rule for e in events] == [COUNT_RULE, CONJUNCTION_RULE]
+    assert [e.rule for e in events] == [REQUEST_COUNT, REQUEST_CONJUNCTION]
 
 
-def test_a_repeated_slice_cycle_fetches_the_next_slice() -> None:
-    plan = (
-        "Navigate Knife, Pickup Knife, Navigate Tomato, Slice Tomato, Place CounterTop, "
-        "Pickup TomatoSliced, Navigate Plate, Place Plate"
-    )
-    covered, _ = _cover("serve 3 slices of tomato on a plate", plan)
-    again = "Navigate TomatoSliced, Pickup TomatoSliced, Navigate Plate, Place Plate"
-    assert covered == f"{plan}, {again}, {again}"
+SLICE_TOMATO = (
+    "Navigate Knife, Pickup Knife, Navigate Tomato, Slice Tomato, Place CounterTop, "
+    "Pickup TomatoSliced, Navigate Plate, Place Plate"
+)
+NEXT_SLICE = "Navigate TomatoSliced, Pickup TomatoSliced, Navigate Plate, Place Plate"
+APPLE_AWAY = "Navigate Apple, Pickup Apple, Navigate Fridge, Open Fridge, Place Fridge, Close Fridge"
+MICROWAVE_ON = "Navigate Microwave, ToggleOn Microwave"
+
+
+@pytest.mark.parametrize(
+    ("said", "plan", "covered"),
+    [
+        pytest.param(
+            "serve 3 slices of tomato on a plate",
+            SLICE_TOMATO,
+            f"{SLICE_TOMATO}, {NEXT_SLICE}, {NEXT_SLICE}",
+            id="a repeated slice cycle fetches the next slice",
+        ),
+        pytest.param(
+            "put two apples in the fridge and turn on the microwave",
+            f"{APPLE_AWAY}, {MICROWAVE_ON}",
+            f"{APPLE_AWAY}, {APPLE_AWAY}, {MICROWAVE_ON}",
+            id="steps after the object is put away stay after the copies",
+        ),
+    ],
+)
+def test_a_repeated_cycle_follows_the_one_planned(said: str, plan: str, covered: str) -> None:
+    assert _cover(said, plan)[0] == covered
 
 
 def test_a_count_already_met_or_already_done_in_the_history_changes_nothing() -> None:
@@ -67,16 +89,6 @@ def test_taking_back_the_same_object_is_one_cycle_and_rinsing_twice_is_two() -> 
     )
     assert len(cycles(toast, "BreadSliced", ONTOLOGY)) == 1
     assert len(cycles(_plan(f"{CLEAN_MUG}, {CLEAN_MUG}"), "Mug", ONTOLOGY)) == 2
-
-
-def test_steps_after_the_object_is_put_away_stay_after_the_copies() -> None:
-    plan = (
-        "Navigate Apple, Pickup Apple, Navigate Fridge, Open Fridge, Place Fridge, Close Fridge, "
-        "Navigate Microwave, ToggleOn Microwave"
-    )
-    covered, _ = _cover("put two apples in the fridge and turn on the microwave", plan)
-    apple = "Navigate Apple, Pickup Apple, Navigate Fridge, Open Fridge, Place Fridge, Close Fridge"
-    assert covered == f"{apple}, {apple}, Navigate Microwave, ToggleOn Microwave"
 
 
 def test_a_copy_does_not_close_a_container_it_did_not_open() -> None:

@@ -19,15 +19,16 @@ import orjson
 from fastapi import APIRouter, Request, Response
 from fastapi.routing import APIRoute
 
-from agent.perception import ObservationError
+from agent.session import AgentSession
 from app.api.deps import OntologyDep, SessionDep
 from app.api.responses import error_responses
 from app.deadline import refuse_stale_request
 from app.errors import STEP_OUT_OF_ORDER, VALIDATION_ERROR, ApiError
-from app.metrics import MetricsDep, step_timing_ms
+from app.metrics import MetricsDep
 from app.multipart import parse_form
-from app.observation import observation_error, observation_from_request
+from app.observation import observation_from_request
 from app.schemas import StepRequest, StepResult
+from app.step_run import StepRules, run_step
 from app.views import step_result
 
 IMAGE_FIELDS: tuple[str, ...] = ("rgb", "depth", "depth_uncertainty", "segmentation")
@@ -156,34 +157,31 @@ async def step(
             f"{', '.join(sorted(unknown))}: only {', '.join(IMAGE_FIELDS)} may be file parts",
         )
 
+    def check_order(session: AgentSession) -> None:
+        if body.step is not None and body.step != session.step:
+            last = session.last_decision
+            again = f" (or {last.step} again, to repeat the last answer)" if last is not None else ""
+            raise ApiError(
+                409,
+                STEP_OUT_OF_ORDER,
+                f"step {body.step} was sent but session {session.session_id!r} expects step "
+                f"{session.step}{again}",
+            )
+
+    rules = StepRules(
+        repeats_last=lambda _, last: body.step is not None and body.step == last.step,
+        check_order=check_order,
+        observe=lambda session: observation_from_request(
+            body, session.camera, session.perception, ontology, parts
+        ),
+    )
+
     def work() -> tuple[StepResult, float]:
-        """The step in one worker thread: the queue deadline, decoding, perception, map and executor."""
+        """The step in one worker thread: the queue deadline, then ``run_step`` under the session's lock."""
         refuse_stale_request(request)  # what the other routes' dependency checks, once a thread is free
         started = time.perf_counter()
         with handle.hold(write=True) as held:
-            session = held.session
-            last = session.last_decision
-            if body.step is not None and last is not None and body.step == last.step:
-                held.changed = False  # a retry of the last answered step: same answer, nothing changes
-                return step_result(last), (time.perf_counter() - started) * 1e3
-            if body.step is not None and body.step != session.step:
-                again = f" (or {last.step} again, to repeat the last answer)" if last is not None else ""
-                raise ApiError(
-                    409,
-                    STEP_OUT_OF_ORDER,
-                    f"step {body.step} was sent but session {session.session_id!r} expects step "
-                    f"{session.step}{again}",
-                )
-            decoding = time.perf_counter()
-            observation = observation_from_request(body, session.camera, session.perception, ontology, parts)
-            decoded = time.perf_counter()
-            try:
-                decision = session.step_once(observation)
-            except ObservationError as error:
-                raise observation_error(error) from error
-            held.new_frame = observation.rgb  # the live view shows it (app.live_view)
-            answer = step_result(decision)
-            metrics.observe_step(decoded - decoding, step_timing_ms(session, decision.step))
+            answer = step_result(run_step(held, rules, metrics).decision)
         return answer, (time.perf_counter() - started) * 1e3
 
     # One thread hop per step: FastAPI would take three for a synchronous handler (the deadline

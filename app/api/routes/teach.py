@@ -9,6 +9,7 @@ from fastapi import APIRouter
 
 from app.api.deps import CallerDep, OntologyDep, SettingsDep, StoreDep, TeachFormDep
 from app.api.responses import error_responses
+from app.metrics import MetricsDep
 from app.schemas import TeachAction, TeachStarted, TeachStatus
 from app.teach import HISTORY_FIELD, START_EDH_PATH, next_action, start_edh_instance
 from app.version import service_version
@@ -88,8 +89,9 @@ def get_next_action(
     store: StoreDep,
     ontology: OntologyDep,
     caller: CallerDep,
+    metrics: MetricsDep,
 ) -> TeachAction:
-    return next_action(form, settings, store, ontology, caller)
+    return next_action(form, settings, store, ontology, caller, metrics)
 
 
 @router.get(
