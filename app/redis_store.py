@@ -82,6 +82,17 @@ redis.call('ZADD', KEYS[3], now + ttl, ARGV[1])
 return {1}
 """
 
+# KEYS: session hash, lease. ARGV: owner ('' when open), token, lease ms.
+# Returns the session's version once this request holds the lease, 0 while another request holds it, -2
+# when there is no such session of this owner (which never waits). One round trip where reading the owner,
+# taking the lease and reading the version took three: a step pays it each time, on every worker.
+_ACQUIRE = """
+local found = redis.call('HMGET', KEYS[1], 'owner', 'ver')
+if found[1] ~= ARGV[1] or not found[2] then return -2 end
+if not redis.call('SET', KEYS[2], ARGV[2], 'NX', 'PX', ARGV[3]) then return 0 end
+return tonumber(found[2])
+"""
+
 # KEYS: session hash, lease, live zset, owner zset, trace zset. ARGV: token, id, ttl ms, write (1|0),
 # snapshot, meta, done flag, view, view revision, frame ('' keeps the last), trace capacity, then step and
 # line pairs of the trace's tail (adding a line already there changes nothing).
@@ -259,6 +270,7 @@ class RedisSessionStore:
         self._read_view = self._readers.register_script(_READ_VIEW)
         self._views: OrderedDict[tuple[str, str], SessionView] = OrderedDict()  # event loop's only
         self._create = self._redis.register_script(_CREATE)
+        self._take_lease = self._redis.register_script(_ACQUIRE)
         self._release = self._redis.register_script(_RELEASE)
         self._live_ids = self._redis.register_script(_LIVE_IDS)
         self._bind = self._redis.register_script(_BIND)
@@ -351,12 +363,11 @@ class RedisSessionStore:
         self, session_id: str, owner: str | None, timeout_s: float, write: bool
     ) -> Iterator[StoredSession]:
         key = self._session_key(session_id)
-        self._check_owner(session_id, owner)  # another owner's request never waits for the lease
-        token = self._acquire(session_id, timeout_s)
+        token, version = self._acquire(session_id, owner, timeout_s)
         self._leases.add(self._lease_key(session_id), token)
         leased = True
         try:
-            stored, version = self._current(session_id, owner)
+            stored = self._current(session_id, owner, version)
             stored.changed = True
             stored.new_frame = None
             try:
@@ -510,19 +521,25 @@ class RedisSessionStore:
         if stored_owner is None or _text(stored_owner) != (owner or ""):
             raise SessionNotFound(session_id)
 
-    def _acquire(self, session_id: str, timeout_s: float) -> str:
-        """This request's lease token, once the session's lease is free; SessionBusy after ``timeout_s``."""
+    def _acquire(self, session_id: str, owner: str | None, timeout_s: float) -> tuple[str, int]:
+        """This request's lease token and the session's version, once the lease is free; SessionNotFound at
+        once for a session this owner does not have, SessionBusy after ``timeout_s``."""
         token = uuid.uuid4().hex
-        lease_key = self._lease_key(session_id)
-        lease_ms = int(self.lease_s * 1000)
+        keys = [self._session_key(session_id), self._lease_key(session_id)]
+        args: list[str | int] = [owner or "", token, int(self.lease_s * 1000)]
         deadline = time.monotonic() + timeout_s
         tries = 0
-        while not self._redis.set(lease_key, token, nx=True, px=lease_ms):
+        while True:
+            version = int(self._take_lease(keys=keys, args=args))
+            if version > 0:
+                return token, version
+            if version == -2:
+                self._forget(session_id)
+                raise SessionNotFound(session_id)
             if time.monotonic() >= deadline:
                 raise SessionBusy(session_id, timeout_s)
             time.sleep(LEASE_POLL_S[min(tries, len(LEASE_POLL_S) - 1)])
             tries += 1
-        return token
 
     def _drop_lease(self, session_id: str, token: str) -> None:
         """Give the lease back when the block failed before its release script ran (only if still ours)."""
@@ -537,22 +554,18 @@ class RedisSessionStore:
             except redis.WatchError:
                 return
 
-    def _current(self, session_id: str, owner: str | None) -> tuple[StoredSession, int]:
-        """The session's latest state: this worker's copy when its version is Redis's, else the snapshot."""
-        version_raw = self._redis.hget(self._session_key(session_id), "ver")
-        if version_raw is None:
-            self._forget(session_id)
-            raise SessionNotFound(session_id)
-        version = int(version_raw)
+    def _current(self, session_id: str, owner: str | None, version: int) -> StoredSession:
+        """The session at ``version`` (read under its lease): this worker's copy when it is that version,
+        else the snapshot."""
         with self._cache_guard:
             cached = self._cache.get(session_id)
             if cached is not None and cached.version == version:
                 self._cache.move_to_end(session_id)
-                return cached.stored, version
+                return cached.stored
         snapshot, meta = self._redis.hmget(self._session_key(session_id), ["snap", "meta"])
         if not isinstance(snapshot, bytes) or not isinstance(meta, bytes):
             raise SessionNotFound(session_id)
-        return self._decode(snapshot, meta, owner), version
+        return self._decode(snapshot, meta, owner)
 
     def _remember(self, session_id: str, version: int, stored: StoredSession) -> None:
         with self._cache_guard:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
+import struct
+import zlib
 
 import cv2
 import numpy as np
@@ -376,6 +379,24 @@ def test_a_twelve_metre_room_fits_in_two_megabytes_and_round_trips() -> None:
     assert restored.collision_events == semantic_map.collision_events
     assert restored.config == semantic_map.config and restored.camera == semantic_map.camera
     assert restored.to_bytes() == blob
+
+
+def test_a_snapshot_written_before_the_voxel_layout_was_recorded_still_loads() -> None:
+    """Maps in a Redis store that an older build wrote (row-major [X, Z, B], no ``layout`` in the header)
+    read back as they were, so a rolling upgrade does not scramble the sessions it takes over."""
+    semantic_map = _walk_twelve_metre_room()
+    blob = semantic_map.to_bytes()
+    (head_len,) = struct.unpack("<I", blob[4:8])
+    header = json.loads(blob[8 : 8 + head_len])
+    del header["layout"]
+    head = json.dumps(header, separators=(",", ":")).encode()
+    flags = zlib.decompress(blob[8 + head_len :])[semantic_map.voxels.size :]
+    body = zlib.compress(np.ascontiguousarray(semantic_map.voxels).tobytes() + flags, level=6)
+    older = blob[:4] + struct.pack("<I", len(head)) + head + body
+
+    restored = SemanticMap.from_bytes(older)
+    np.testing.assert_array_equal(restored.voxels, semantic_map.voxels)
+    np.testing.assert_array_equal(restored.collisions(), semantic_map.collisions())
 
 
 def test_snapshots_that_do_not_fit_are_refused() -> None:
