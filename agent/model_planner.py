@@ -6,9 +6,11 @@ against the belief after the history. Here the generation is validated first (``
 names outside the ontology are mapped to the nearest type or dropped, and each such decision enters the
 repair log as a ``RepairEvent`` (rules ``model-output-mapped`` / ``model-output-dropped``, ``index`` being the
 item's position in the generated text), so the session's trace shows it beside the rules that fired.
-Between validation and repair the plan is made to cover what the commander asked for in number
-(``symbolic.request_cover``: "two plates", "a mug and a pan"; rules ``request-count`` and
-``request-conjunction``), because the model plans one object where people ask for several (issue 62).
+Between validation and repair the plan follows the commander's corrections (``symbolic.request_corrections``:
+"sorry, not the desk, the sofa"; rule ``request-correction``) and is made to cover what the commander asked
+for in number (``symbolic.request_cover``: "two plates", "a mug and a pan"; rules ``request-count`` and
+``request-conjunction``), because the model keeps the first word and plans one object where people ask for
+several (issue 62).
 
 The model is loaded once per process and checkpoint (``load_generator`` is cached) and shared by every
 session; importing this module loads no model and no torch.
@@ -31,6 +33,7 @@ from models.planner.text import format_planner_input
 from symbolic.commands import CommandItem, format_command, parse_command
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.repair import RepairEvent, repair_plan
+from symbolic.request_corrections import follow_corrections, read_corrections
 from symbolic.request_cover import cover_request
 from symbolic.request_words import object_words, read_request
 from symbolic.subgoals import Subgoal, SubgoalSyntaxError, format_subgoals
@@ -143,11 +146,14 @@ class ModelPlanner:
             observer(time.perf_counter() - started)
         events = validation_events(prediction)
         plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
-        request = read_request(commander_words(context), object_words(self.ontology))
+        said, words = commander_words(context), object_words(self.ontology)
+        request = read_request(said, words)
+        corrections = read_corrections(said, words)
+        plan, corrected = follow_corrections(plan, corrections, request.mentions, self.ontology)
         plan, asked = cover_request(plan, request, self.ontology, context.history_subgoals)
         repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
         final, cut_after = _truncated(repaired.plan, self.config.max_subgoals, "repaired")
-        log = (*events, *cut, *asked, *repaired.log, *cut_after)
+        log = (*events, *cut, *corrected, *asked, *repaired.log, *cut_after)
         LOG.info(
             "model plan: %d generated, %d after repair, %d validation changes, %d repairs: %s",
             len(prediction.subgoals),

@@ -347,6 +347,7 @@ DEDUPE_NAVIGATE = "dedupe-navigate"
 ASSUME_FILLED = "assume-filled"
 REQUEST_COUNT = "request-count"
 REQUEST_CONJUNCTION = "request-conjunction"
+REQUEST_CORRECTION = "request-correction"
 STAND_IN = "stand-in"
 KIN_STAND_IN = "kin-stand-in"
 MAKE_ROOM = "make-room"
@@ -397,6 +398,9 @@ REPAIR_RULES: Registry[Rule] = Registry(
         ),
         REQUEST_CONJUNCTION: Rule(
             "Copy a cycle for an object joined by 'and' to a planned one.", "model planner"
+        ),
+        REQUEST_CORRECTION: Rule(
+            "Give an object the commander corrected to the steps of the one taken back.", "model planner"
         ),
         STAND_IN: Rule("Fetch the slicing tool the map knows when the planned kind is unknown.", "executor"),
         KIN_STAND_IN: Rule("Swap a type searched for in vain for a known type of the same word.", "executor"),

@@ -19,7 +19,7 @@ subgoal, so "all" without a number is left as the model planned it. Each change 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass
 
 from symbolic.ontology import Ontology
@@ -146,22 +146,36 @@ def _repeats(plan: Sequence[Subgoal], obj: str, start: int, end: int) -> list[Cy
 
 def retyped(cycle: Sequence[Subgoal], old: str, new: str, ontology: Ontology) -> list[Subgoal] | None:
     """The cycle of ``old`` with ``new`` in its place (the whole it is sliced from too: Tomato for
-    TomatoSliced), or None when ``new`` cannot do a step of it: an action it does not afford, or a
-    receptacle that does not take it."""
+    TomatoSliced), or None when ``new`` cannot do a step of it (``renamed``)."""
     renames = {old: new}
     old_whole, new_whole = ontology.get(old).sliced_from, ontology.get(new).sliced_from
     if old_whole is not None and new_whole is not None:
         renames[old_whole] = new_whole
+    return renamed(cycle, renames, ontology, checked={new})
+
+
+def renamed(
+    plan: Sequence[Subgoal],
+    renames: Mapping[str, str],
+    ontology: Ontology,
+    checked: Set[str],
+    *,
+    as_receptacles: bool = False,
+) -> list[Subgoal] | None:
+    """``plan`` with each type in ``renames`` replaced, or None when a replaced type cannot do a step: an
+    action it does not afford, or a Place of a thing in ``checked`` (or, ``as_receptacles``, into one) that
+    the receptacle does not take."""
     copy: list[Subgoal] = []
     held: str | None = None
-    for subgoal in cycle:
+    for subgoal in plan:
         changed = Subgoal(subgoal.action, renames.get(subgoal.obj, subgoal.obj))
         if affordance_failure(ontology, changed) is not None:
             return None
         if changed.action is A.PICKUP:
             held = changed.obj
         elif changed.action is A.PLACE:
-            if held == new and not ontology.accepts(changed.obj, new):
+            watched = held in checked or (as_receptacles and changed.obj in checked)
+            if held is not None and watched and not ontology.accepts(changed.obj, held):
                 return None
             held = None
         copy.append(changed)

@@ -310,7 +310,7 @@ def read_request(texts: Sequence[str], words: ObjectWords) -> Request:
     groups: list[Group] = []
     for turn, text in enumerate(texts):
         turn_words = tokens(text)
-        found = _mentions_in(turn, turn_words, words)
+        found = mentions_in(turn, turn_words, words)
         groups += _groups(turn_words, found, words.ontology)
         mentions += _with_back_references(text, turn, found, mentions, words.ontology)
     return Request(tuple(mentions), tuple(g for g in groups if not _named_again(g, mentions)))
@@ -324,7 +324,7 @@ def _named_again(group: Group, mentions: Sequence[Mention]) -> bool:
     return any(m.turn > turn and m.family in families for m in mentions)
 
 
-def _mentions_in(turn: int, words: Sequence[str], grounder: ObjectWords) -> list[Mention]:
+def mentions_in(turn: int, words: Sequence[str], grounder: ObjectWords) -> list[Mention]:
     found: list[Mention] = []
     i = 0
     while i < len(words):
