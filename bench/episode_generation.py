@@ -87,9 +87,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "episodes_per_second": round(episodes / total, 3) if total else 0.0,
         "median_ms_per_successful_game": {stage: _median_ms(values) for stage, values in stages.items()},
     }
-    print(json.dumps(result, indent=2))
-    run.write(args.out, result)
-    return 0
+    return run.finish(args.out, result, [json.dumps(result, indent=2)])
 
 
 if __name__ == "__main__":

@@ -190,9 +190,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     else:
         result["better"] = max(EXPLORERS, key=lambda name: searches[name])
-    print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2))
-    run.write(args.out, result)
-    return 0
+    return run.finish(
+        args.out, result, [json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=2)]
+    )
 
 
 if __name__ == "__main__":

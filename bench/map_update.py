@@ -139,14 +139,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     results["ratio_largest_state_to_limit"] = round(
         max(r["state_bytes_in_memory"] for r in (small, large)) / STATE_LIMIT_BYTES, 3
     )
-    print(
+    summary = (
         f"map_update: 300x300 update median {small['update_median_ms']} ms (p90 {small['update_p90_ms']}), "
         f"with perception {small['perceive_plus_update_median_ms']} ms; 900x900 update median "
         f"{large['update_median_ms']} ms; state {small['state_bytes_in_memory']} B in memory, "
         f"{small['state_bytes_serialized']} B serialized"
     )
-    run.write(args.out, results)
-    return 0
+    return run.finish(args.out, results, [summary])
 
 
 if __name__ == "__main__":

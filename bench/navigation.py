@@ -138,18 +138,29 @@ def house(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
     obstacles[0, :] = obstacles[-1, :] = obstacles[:, 0] = obstacles[:, -1] = True
     for axis in (0, 1, 0):
         at, door = int(rng.integers(50, SIDE - 50)), int(rng.integers(10, SIDE - 30))
-        wall = np.zeros_like(obstacles)
-        wall[at : at + 3, :] = True
-        wall[at : at + 3, door : door + 18] = False  # 0.9 m doorway
-        obstacles |= wall if axis == 0 else wall.T
+        add_partition(obstacles, at, door, across_columns=axis == 1)
     furniture = []
     for _ in range(10):
         (w, d), (i, j) = rng.integers(8, 30, size=2), rng.integers(5, SIDE - 35, size=2)
-        piece = np.zeros_like(obstacles)
-        piece[i : i + w, j : j + d] = True
-        furniture.append(piece)
-        obstacles |= piece
+        furniture.append(add_box(obstacles, i, j, w, d))
     return obstacles, furniture
+
+
+def add_partition(obstacles: np.ndarray, at: int, door: int, *, across_columns: bool = False) -> None:
+    """Wall off rows ``at``..``at + 2`` of the square grid ``obstacles`` (columns with ``across_columns``),
+    in place, but for a 0.9 m doorway at cells ``door``..``door + 17``: a room's partition."""
+    wall = np.zeros_like(obstacles)
+    wall[at : at + 3, :] = True
+    wall[at : at + 3, door : door + 18] = False  # 0.9 m doorway
+    obstacles |= wall.T if across_columns else wall
+
+
+def add_box(obstacles: np.ndarray, i: int, j: int, w: int, d: int) -> np.ndarray:
+    """Mark a ``w`` x ``d`` piece of furniture with corner (``i``, ``j``) in ``obstacles``; its own mask."""
+    piece = np.zeros_like(obstacles)
+    piece[i : i + w, j : j + d] = True
+    obstacles |= piece
+    return piece
 
 
 def sweep_rule(passable: np.ndarray) -> MoveCheck:
@@ -308,9 +319,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{name} {stats['next_action_median_ms']} ms median, success {stats['success_rate']}"
         for name, stats in ((name, synthetic[name]) for name in NAVIGATORS)
     )
-    print(f"navigation: {line}")
-    run.write(args.out, results)
-    return 0
+    return run.finish(args.out, results, [f"navigation: {line}"])
 
 
 if __name__ == "__main__":

@@ -226,17 +226,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             "min": SR_RATIO_MIN,
             "met": ratio is not None and ratio >= SR_RATIO_MIN,
         }
-    print(f"{'setting':<22}{'SR':>8}{'GC':>8}{'TLW-SR':>8}")
+    return run.finish(args.out, report, table(results))
+
+
+def table(results: dict[str, Any]) -> list[str]:
+    """The lines printed at the end: SR, GC and TLW-SR of each setting (or why it was refused)."""
+    lines = [f"{'setting':<22}{'SR':>8}{'GC':>8}{'TLW-SR':>8}"]
     for name, row in results.items():
         if "refused" in row:
-            print(f"{name:<22} refused: {row['refused']}")
+            lines.append(f"{name:<22} refused: {row['refused']}")
         else:
-            print(
+            lines.append(
                 f"{name:<22}{row['success_rate']:>8.3f}{row['goal_condition_success_rate']:>8.3f}"
                 f"{row['path_length_weighted_success_rate']:>8.3f}"
             )
-    run.write(args.out, report)
-    return 0
+    return lines
 
 
 if __name__ == "__main__":

@@ -118,9 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     }
     summary = {k: v for k, v in result.items() if k != "segmentation"}
     summary["segmentation"] = {k: seg[k] for k in ("miou", "task_miou", "pixel_accuracy", "task_class_iou")}
-    print(json.dumps(summary, indent=2))
-    run.write(args.out, result)
-    return 0
+    return run.finish(args.out, result, [json.dumps(summary, indent=2)])
 
 
 if __name__ == "__main__":

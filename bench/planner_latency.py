@@ -258,9 +258,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "under_load": under_load,
         "agreement": agreed,
     }
-    print(json.dumps(result, indent=2))
-    run.write(args.out, result)
-    return 0
+    return run.finish(args.out, result, [json.dumps(result, indent=2)])
 
 
 if __name__ == "__main__":

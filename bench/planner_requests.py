@@ -223,16 +223,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         "sets": reports,
         "wall_s": round(time.perf_counter() - started, 1),
     }
-    for report in reports:
-        print(
-            f"{report['name']:<32} n={report['model']['n']:<4} "
-            f"model exact {report['model']['exact']:.3f} F1 {report['model']['f1']:.3f} | "
-            f"repaired {report['repaired']['exact']:.3f} / {report['repaired']['f1']:.3f} | "
-            f"covered {report['covered']['exact']:.3f} / {report['covered']['f1']:.3f} | "
-            f"changed {report['changed']} (+{report['gained_exact']} -{report['lost_exact']})"
-        )
-    run.write(args.out, result)
-    return 0
+    summary = (
+        f"{report['name']:<32} n={report['model']['n']:<4} "
+        f"model exact {report['model']['exact']:.3f} F1 {report['model']['f1']:.3f} | "
+        f"repaired {report['repaired']['exact']:.3f} / {report['repaired']['f1']:.3f} | "
+        f"covered {report['covered']['exact']:.3f} / {report['covered']['f1']:.3f} | "
+        f"changed {report['changed']} (+{report['gained_exact']} -{report['lost_exact']})"
+        for report in reports
+    )
+    return run.finish(args.out, result, summary)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import numpy as np
 
 from bench.cli import bench_parser
 from bench.stamp import BenchRun
-from harness.render.camera import CameraSpec
+from harness.render.camera import ALFRED_CAMERA, TEACH_CAMERA, CameraSpec
 from harness.render.geometry import primitives
 from harness.render.renderer import Renderer
 from harness.sim.navgrid import reachable_grid
@@ -29,8 +29,8 @@ from symbolic.thor import ALFRED_HFOV_DEG, ALFRED_IMAGE_SIDE, TEACH_HFOV_DEG, TE
 
 SEED = 0
 RUNS: tuple[tuple[CameraSpec, int], ...] = (
-    (CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG), 50),
-    (CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG), 20),
+    (ALFRED_CAMERA, 50),
+    (TEACH_CAMERA, 20),
 )
 TARGET_300_MEDIAN_MS = 50.0
 OPENED_FOR_TIMING = frozenset({"Fridge", "Cabinet", "Drawer", "Microwave"})
@@ -94,12 +94,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     results["ratio_300_median_to_target"] = round(small["median_ms"] / TARGET_300_MEDIAN_MS, 3)
     large = results[f"{TEACH_IMAGE_SIDE}x{TEACH_IMAGE_SIDE}_hfov{TEACH_HFOV_DEG:g}"]
     assert isinstance(large, dict)
-    print(
+    summary = (
         f"render_speed: 300x300 median {small['median_ms']} ms (p90 {small['p90_ms']}), "
         f"900x900 median {large['median_ms']} ms (p90 {large['p90_ms']})"
     )
-    run.write(args.out, results)
-    return 0
+    return run.finish(args.out, results, [summary])
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, requires, version
@@ -176,3 +176,12 @@ class BenchRun:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(stamped, indent=2) + "\n", encoding="utf-8")
         print(f"wrote {out}")
+
+    def finish(
+        self, out: Path, report: Mapping[str, Any], summary: Iterable[str], libraries: Sequence[str] = ()
+    ) -> int:
+        """How a bench script ends: print its ``summary`` lines, ``write`` the report; the exit status (0)."""
+        for line in summary:
+            print(line)
+        self.write(out, report, libraries)
+        return 0

@@ -23,7 +23,7 @@ import numpy as np
 
 from bench.cli import bench_parser
 from bench.stamp import BenchRun
-from harness.render.camera import CameraSpec
+from harness.render.camera import ALFRED_CAMERA, TEACH_CAMERA, CameraSpec
 from harness.sim.clicks import click_point_of
 from harness.sim.simulator import Simulator
 from harness.world.model import World
@@ -31,17 +31,13 @@ from harness.world.procedural.config import WorldGenConfig
 from harness.world.procedural.generate import generate_world
 from symbolic.ontology import load_ontology
 from symbolic.thor import (
-    ALFRED_HFOV_DEG,
-    ALFRED_IMAGE_SIDE,
     MOTION_ACTIONS,
-    TEACH_HFOV_DEG,
-    TEACH_IMAGE_SIDE,
 )
 
 SEED = 0
 RUNS: tuple[tuple[CameraSpec, int], ...] = (
-    (CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG), 60),
-    (CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG), 20),
+    (ALFRED_CAMERA, 60),
+    (TEACH_CAMERA, 20),
 )
 """Camera and number of timed steps of each kind."""
 
@@ -145,9 +141,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"interaction cold {median['interaction_step_cold']} ms, "
             f"after observe {median['interaction_step_after_observe']} ms"
         )
-    print("step_speed: " + "; ".join(lines))
-    run.write(args.out, results)
-    return 0
+    return run.finish(args.out, results, ["step_speed: " + "; ".join(lines)])
 
 
 if __name__ == "__main__":

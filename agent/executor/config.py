@@ -96,6 +96,21 @@ class SearchConfig:
     door_clearance_m: float = 0.1  # metres a viewpoint keeps inside the line of a swung door, so the door
     # does not hide what is inside
 
+    # ----- container sightings (``sightings``: the instances of closed containers seen so far) -----
+    sighting_same_id_m: float = 0.6  # metres, horizontally: a sighting with the same segmentation id this
+    # close is the same instance (its centroid moves as more or less of it shows, up and down a 1.8 m
+    # fridge most)
+    sighting_same_place_m: float = 0.2  # metres: a sighting of the same type this close is the same
+    # instance, whatever its id
+    sighting_stride_px: int = 3  # pixels between the samples a frame's container instances are read from
+    # (centroids, face normals)
+    sighting_edge_m: float = 0.1  # metres: neighbouring samples farther apart than this straddle an edge
+    # and cast no face vote
+    sighting_upright: float = 0.5  # a normal whose vertical part is at most this fraction of its length
+    # belongs to a vertical face
+    sighting_min_pixels: int = 40  # visible pixels an instance needs to be remembered (a sliver at the
+    # image edge places its point badly)
+
 
 @dataclass(frozen=True)
 class ExecutorConfig:

@@ -180,7 +180,7 @@ class Executor:
         verdict in ``inputs.previous`` first, then the containers in view are noted, then the pursuit."""
         step = _Step(self, inputs, plan, pointer)
         step.previous.apply(inputs.previous)
-        sightings.note_view(self.state.searched.containers, inputs.view, self.ontology)
+        sightings.note_view(self.state.searched.containers, inputs.view, self.ontology, self.config.search)
         return step.pursue()
 
     def pursue(self, inputs: StepInputs, plan: Sequence[Subgoal], pointer: int) -> Decision:

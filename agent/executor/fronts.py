@@ -213,7 +213,7 @@ class ContainerFronts:
         swung = self.known_front(body) if body is not None else None
         if swung is not None:
             return swung
-        known = sightings.find(self.containers, kind, face, instance_id)
+        known = sightings.find(self.containers, kind, face, instance_id, self.ctx.cfg.search)
         return sightings.facing(known) if known is not None else None
 
     def swung_front(self, kind: str, point: Point) -> tuple[float, FrontRecord] | None:

@@ -20,43 +20,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from agent.executor.clicks import group_ids
+from agent.executor.config import SearchConfig
 from agent.executor.mapview import SessionMapView
 from agent.executor.state import ContainerVisit, Point, Sighting
 from agent.geometry import Camera, Pose, camera_position, camera_to_world, pixel_ray_slopes
 from symbolic.ontology import Ontology
 
-SAME_ID_M = 0.6
-"""Metres, horizontally: a sighting with the same segmentation id this close is the same instance (its
-centroid moves as more or less of it shows, up and down a 1.8 m fridge most)."""
-SAME_PLACE_M = 0.2
-"""Metres: a sighting of the same type this close is the same instance, whatever its id."""
-SAMPLE_STRIDE = 3
-"""Pixels between the samples a frame's container instances are read from (centroids, face normals)."""
-MAX_STEP_M = 0.1
-"""Metres: neighbouring samples farther apart than this straddle an edge and cast no vote."""
-UPRIGHT = 0.5
-"""A normal whose vertical part is at most this fraction of its length belongs to a vertical face."""
 DIRECTIONS: tuple[float, ...] = (0.0, 90.0, 180.0, -90.0)
 """The four axis directions a face can look toward, degrees (0 toward +z, 90 toward +x)."""
-MIN_PIXELS = 40
-"""Visible pixels an instance needs to be remembered (a sliver at the image edge places its point badly)."""
 
 
-def same_instance(sighting: Sighting, object_type: str, point: Point, instance_id: int | None) -> bool:
+def same_instance(
+    sighting: Sighting, object_type: str, point: Point, instance_id: int | None, cfg: SearchConfig
+) -> bool:
     """Whether an instance seen at ``point`` is the one ``sighting`` remembers."""
     if sighting.object_type != object_type:
         return False
-    if math.dist(sighting.point, point) <= SAME_PLACE_M:
+    if math.dist(sighting.point, point) <= cfg.sighting_same_place_m:
         return True
     across = math.hypot(sighting.point[0] - point[0], sighting.point[2] - point[2])
-    return instance_id == sighting.instance_id and across <= SAME_ID_M
+    return instance_id == sighting.instance_id and across <= cfg.sighting_same_id_m
 
 
 def find(
-    sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None
+    sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None, cfg: SearchConfig
 ) -> Sighting | None:
     """The remembered instance seen at ``point`` (the nearest when several qualify), or None."""
-    matches = [s for s in sightings if same_instance(s, object_type, point, instance_id)]
+    matches = [s for s in sightings if same_instance(s, object_type, point, instance_id, cfg)]
     return min(matches, key=lambda s: math.dist(s.point, point)) if matches else None
 
 
@@ -79,15 +69,16 @@ def observe(
     camera: Camera,
     pose: Pose,
     kinds: dict[int, str],
+    cfg: SearchConfig,
 ) -> list[Seen]:
     """The instances of the container classes ``kinds`` (class id -> type) in a frame, from one
-    back-projection of every ``SAMPLE_STRIDE``-th pixel in the box around them (it runs every step).
+    back-projection of every ``cfg.sighting_stride_px``-th pixel in the box around them (it runs every step).
 
     Each instance's face votes come from surface normals of neighbouring samples (on one instance, no
     edge between them): a cabinet's front shows in most views, its side only from beside it, so the votes
     of all views tell the way it faces.
     """
-    S = SAMPLE_STRIDE
+    S = cfg.sighting_stride_px
     is_kind = np.zeros(256, dtype=bool)  # class id -> one of ``kinds`` (a table beats np.isin here)
     is_kind[list(kinds)] = True
     wanted = is_kind[class_ids[::S, ::S]] & usable[::S, ::S] & (instances[::S, ::S] != 0)
@@ -116,11 +107,11 @@ def observe(
         & ok[1:, :-1]
         & (ids[:-1, 1:] == here)
         & (ids[1:, :-1] == here)
-        & (np.sqrt(rx * rx + ry * ry + rz * rz) <= MAX_STEP_M)
-        & (np.sqrt(dx * dx + dy * dy + dz * dz) <= MAX_STEP_M)
+        & (np.sqrt(rx * rx + ry * ry + rz * rz) <= cfg.sighting_edge_m)
+        & (np.sqrt(dx * dx + dy * dy + dz * dz) <= cfg.sighting_edge_m)
     )
     length = np.sqrt(nx * nx + ny * ny + nz * nz)
-    valid &= (length > 0) & (np.abs(ny) <= UPRIGHT * length)
+    valid &= (length > 0) & (np.abs(ny) <= cfg.sighting_upright * length)
     eye_x, eye_y, eye_z = camera_position(camera, pose)
     toward = nx * (eye_x - px[:-1, :-1]) + ny * (eye_y - py[:-1, :-1]) + nz * (eye_z - pz[:-1, :-1])
     flip = np.where(toward < 0, -1.0, 1.0)  # [h-1, w-1]: face the camera
@@ -161,12 +152,12 @@ def facing(sighting: Sighting) -> float | None:
     return DIRECTIONS[int(np.argmax(sighting.faces))]
 
 
-def note(sightings: list[Sighting], seen: list[Seen]) -> None:
+def note(sightings: list[Sighting], seen: list[Seen], cfg: SearchConfig) -> None:
     """Remember the container instances of this frame; a fuller view moves the point, votes add up."""
     for instance in seen:
-        if instance.pixels < MIN_PIXELS:
+        if instance.pixels < cfg.sighting_min_pixels:
             continue
-        known = find(sightings, instance.object_type, instance.point, instance.instance_id)
+        known = find(sightings, instance.object_type, instance.point, instance.instance_id, cfg)
         if known is None:
             known = Sighting(instance.object_type, instance.point, instance.instance_id, instance.pixels)
             sightings.append(known)
@@ -179,31 +170,36 @@ def note(sightings: list[Sighting], seen: list[Seen]) -> None:
         known.faces = [a + b for a, b in zip(known.faces, instance.votes, strict=True)]
 
 
-def note_view(sightings: list[Sighting], view: SessionMapView, ontology: Ontology) -> None:
+def note_view(sightings: list[Sighting], view: SessionMapView, ontology: Ontology, cfg: SearchConfig) -> None:
     """Remember the container instances (``Ontology.enclosing`` types) in this step's frame: the doors a
     search may open."""
     percept, classes = view.percept, view.map.classes
     kinds = {classes.id_of(kind): kind for kind in ontology.enclosing if kind in classes.types}
     seen = observe(
-        percept.class_ids, percept.instances, percept.depth, view.usable, view.camera, view.pose, kinds
+        percept.class_ids, percept.instances, percept.depth, view.usable, view.camera, view.pose, kinds, cfg
     )
-    note(sightings, seen)
+    note(sightings, seen, cfg)
 
 
 def mark_searched(
-    sightings: list[Sighting], object_type: str, point: Point, instance_id: int | None, target: str
+    sightings: list[Sighting],
+    object_type: str,
+    point: Point,
+    instance_id: int | None,
+    target: str,
+    cfg: SearchConfig,
 ) -> None:
     """Record that the instance at ``point`` was opened (or given up on) while looking for ``target``; every
     sighting that may be it (a fridge seen as two before its views merged) is done with."""
     for known in sightings:
-        if same_instance(known, object_type, point, instance_id) and target not in known.searched_for:
+        if same_instance(known, object_type, point, instance_id, cfg) and target not in known.searched_for:
             known.searched_for.append(target)
 
 
-def mark_visited(sightings: list[Sighting], visit: ContainerVisit, target: str) -> None:
+def mark_visited(sightings: list[Sighting], visit: ContainerVisit, target: str, cfg: SearchConfig) -> None:
     """Record that ``visit``'s container was opened (or given up on) for ``target``: both the sighting the
     visit set out for (at ``visit.target``) and whatever sighting lies where its door was clicked. The click
     lands on the door, not at the sighting's centroid, and with a learned segmenter's per-frame ids nothing
     else ties the two: the sighting left unmarked would be opened again and again."""
     for point in dict.fromkeys(p for p in (visit.target, visit.opened_at) if p is not None):
-        mark_searched(sightings, visit.object_type, point, visit.instance_id, target)
+        mark_searched(sightings, visit.object_type, point, visit.instance_id, target, cfg)

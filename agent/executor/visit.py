@@ -201,7 +201,7 @@ class ContainerVisits:
 
     def _mark_opened(self, visit: ContainerVisit, obj: str) -> None:
         """The visited container instance was opened (or given up on) for ``obj``: not a candidate again."""
-        sightings.mark_visited(self.searched.containers, visit, obj)
+        sightings.mark_visited(self.searched.containers, visit, obj, self.ctx.cfg.search)
 
     def _visited_box(self, visit: ContainerVisit) -> Box:
         """What a finished visit rules out: the opened instance's extent, else the region around its part."""
@@ -346,7 +346,7 @@ class ContainerVisits:
         for x, z in visit.seen_from:
             fresh &= np.hypot(xs[:, None] - x, zs[None, :] - z) > cfg.search.viewpoint_gap_m
         goal = np.zeros_like(reachable)
-        known = sightings.find(self.searched.containers, kind, inside, visit.instance_id)
+        known = sightings.find(self.searched.containers, kind, inside, visit.instance_id, self.ctx.cfg.search)
         voted = sightings.facing(known) if known is not None else None
         # Straight in front of it, first: the way its door was seen to swing at this Open, else the face
         # most seen. A fridge approached from beside it shows its side most, and its inside only from in

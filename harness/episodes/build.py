@@ -51,7 +51,7 @@ from harness.episodes.teach_format import (
     utterance_entry,
 )
 from harness.expert.expert import ExpertAction, ExpertTrajectory
-from harness.render.camera import CameraSpec
+from harness.render.camera import TEACH_CAMERA, CameraSpec
 from harness.render.renderer import Renderer
 from harness.sim.simulator import Simulator
 from harness.tasks.teach import TaskInstance
@@ -59,14 +59,14 @@ from harness.world.model import World
 from harness.world.splits import Split
 from symbolic.ontology import Ontology
 from symbolic.subgoals import subgoals_from_teach_actions, to_teach_words
-from symbolic.thor import TEACH_HFOV_DEG, TEACH_IMAGE_SIDE, TEACH_LOOK_STEP_DEG
+from symbolic.thor import TEACH_LOOK_STEP_DEG
 
 
 @dataclass(frozen=True)
 class BuildConfig:
     """How a game is turned into files."""
 
-    camera: CameraSpec = CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG)
+    camera: CameraSpec = TEACH_CAMERA
     """The driver's camera; must be the one the expert's clicks were computed for."""
     look_step_deg: int = TEACH_LOOK_STEP_DEG  # degrees per Look Up/Down (TEACh)
     edh_per_game: int = 3  # EDH instances cut from one game at most

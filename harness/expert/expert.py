@@ -32,7 +32,7 @@ from harness.expert.navigation import (
 )
 from harness.expert.planning import ExpertSubgoal, PlanError
 from harness.expert.recipes import Task, plan_task
-from harness.render.camera import CameraSpec
+from harness.render.camera import ALFRED_CAMERA, TEACH_CAMERA, CameraSpec
 from harness.render.renderer import Renderer
 from harness.sim.failures import FailureReason
 from harness.sim.simulator import HELD_COLLISION_SIZE_M, ActionResult, Simulator
@@ -44,16 +44,12 @@ from harness.world.model import World
 from symbolic.ontology import Ontology, load_ontology
 from symbolic.subgoals import ACTION_NAME_FOR_SUBGOAL, Subgoal, SubgoalAction
 from symbolic.thor import (
-    ALFRED_HFOV_DEG,
-    ALFRED_IMAGE_SIDE,
     ALFRED_LOOK_STEP_DEG,
     INTERACTION_DISTANCE_M,
     MAX_FAILED_ACTIONS,
     MAX_STEPS,
     MOTION_ACTIONS,
     OBJECT_ACTIONS,
-    TEACH_HFOV_DEG,
-    TEACH_IMAGE_SIDE,
     TEACH_LOOK_STEP_DEG,
 )
 
@@ -69,7 +65,7 @@ AVOID_AFTER = frozenset(
 class ExpertConfig:
     """How the expert acts: the camera its clicks are for, and its search and retry budgets."""
 
-    camera: CameraSpec = CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG)
+    camera: CameraSpec = TEACH_CAMERA
     """The driver's camera (TEACh: 900x900, 90°); clicks are fractions of its frame."""
     look_step_deg: int = TEACH_LOOK_STEP_DEG  # degrees per Look Up/Down (TEACh 30, ALFRED 15)
     check_side_px: int = 300  # visibility renders at the camera's resolution divided down to this, pixels
@@ -85,7 +81,7 @@ class ExpertConfig:
     def alfred(cls) -> ExpertConfig:
         """ALFRED's driver: 300x300 frames with a 60° field of view, 15° look steps."""
         return cls(
-            camera=CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG),
+            camera=ALFRED_CAMERA,
             look_step_deg=ALFRED_LOOK_STEP_DEG,
         )
 

@@ -26,7 +26,13 @@ from typing import NamedTuple
 import numpy as np
 
 from harness.world.model import AgentState
-from symbolic.thor import CAMERA_HEIGHT_M
+from symbolic.thor import (
+    ALFRED_HFOV_DEG,
+    ALFRED_IMAGE_SIDE,
+    CAMERA_HEIGHT_M,
+    TEACH_HFOV_DEG,
+    TEACH_IMAGE_SIDE,
+)
 
 
 @dataclass(frozen=True)
@@ -86,6 +92,12 @@ class CameraSpec:
     def pose_at(self, x: float, z: float, yaw_deg: float, horizon_deg: float) -> CameraPose:
         """A pose of this camera for a body standing at (x, z): the eye is ``height_m`` above the floor."""
         return CameraPose(x, self.height_m, z, yaw_deg, horizon_deg)
+
+
+ALFRED_CAMERA = CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG)
+"""ALFRED's frames: 300x300 with a 60° field of view."""
+TEACH_CAMERA = CameraSpec(TEACH_IMAGE_SIDE, TEACH_IMAGE_SIDE, TEACH_HFOV_DEG)
+"""TEACh's frames: 900x900 with a 90° field of view."""
 
 
 class ImagePoints(NamedTuple):

@@ -112,6 +112,22 @@ _COMPACT_KEYS = {
     "condition_failure_descs": "failure",
 }
 """... and in our compact restatement ``teach_tasks.json``."""
+_TEACH_TASK_KEYS = {
+    "task_id": "task_id",
+    "task_name": "task_name",
+    "task_nparams": "task_nparams",
+    "task_anchor_object": "task_anchor_object",
+    "param_notes": "comments_task_params",
+}
+"""A task's own fields -> their keys in TEACh's ``task_definitions/*.json`` ..."""
+_COMPACT_TASK_KEYS = {
+    "task_id": "id",
+    "task_name": "name",
+    "task_nparams": "nparams",
+    "task_anchor_object": "anchor",
+    "param_notes": "param_notes",
+}
+"""... and in ``teach_tasks.json``."""
 
 
 def _component(comp: Mapping[str, Any], keys: Mapping[str, str]) -> Component:
@@ -148,16 +164,7 @@ def definition_from_teach(data: Mapping[str, Any]) -> TaskDefinition:
                 failure_desc=rel["failure_desc"],
             )
         )
-    return TaskDefinition(
-        task_id=int(data["task_id"]),
-        task_name=data["task_name"],
-        task_nparams=int(data["task_nparams"]),
-        task_anchor_object=data["task_anchor_object"],
-        desc=data["desc"],
-        components=components,
-        relations=tuple(relations),
-        param_notes=dict(data.get("comments_task_params", {})),
-    )
+    return _definition(data, _TEACH_TASK_KEYS, components, relations)
 
 
 def definition_from_compact(data: Mapping[str, Any]) -> TaskDefinition:
@@ -174,15 +181,25 @@ def definition_from_compact(data: Mapping[str, Any]) -> TaskDefinition:
         )
         for rel in data["relations"]
     )
+    return _definition(data, _COMPACT_TASK_KEYS, components, relations)
+
+
+def _definition(
+    data: Mapping[str, Any],
+    keys: Mapping[str, str],
+    components: Mapping[str, Component],
+    relations: Sequence[Relation],
+) -> TaskDefinition:
+    """The definition of a task read with either file's keys (components and relations already parsed)."""
     return TaskDefinition(
-        task_id=int(data["id"]),
-        task_name=data["name"],
-        task_nparams=int(data["nparams"]),
-        task_anchor_object=data["anchor"],
+        task_id=int(data[keys["task_id"]]),
+        task_name=data[keys["task_name"]],
+        task_nparams=int(data[keys["task_nparams"]]),
+        task_anchor_object=data[keys["task_anchor_object"]],
         desc=data["desc"],
         components=components,
-        relations=relations,
-        param_notes=dict(data.get("param_notes", {})),
+        relations=tuple(relations),
+        param_notes=dict(data.get(keys["param_notes"], {})),
     )
 
 

@@ -15,11 +15,12 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import save_file
 from torch import nn
 
 from models.goal_transformer.encoder import ENCODER_NAME, FEATURE_DIM, INPUT_SIDE
 from models.portable_paths import portable_record
+from models.weights import load_float32_state
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import SubgoalAction
 from symbolic.thor import MOTION_ACTIONS
@@ -29,7 +30,6 @@ GT_ACTIONS: tuple[str, ...] = tuple(a for a in MOTION_ACTIONS if not a.startswit
 START_ACTION = "<start>"
 """The "previous action" of the first history step."""
 PAD = "<pad>"
-WEIGHT_FILES: tuple[str, ...] = ("model.safetensors", "model.pt", "pytorch_model.bin")
 
 
 def default_vocabulary() -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -156,15 +156,5 @@ def load_goal_transformer(directory: Path) -> GoalTransformer:
     if not path.is_file():
         raise FileNotFoundError(f"{directory} has no config.json (is it a goal transformer checkpoint?)")
     model = GoalTransformer(GoalTransformerConfig.from_dict(json.loads(path.read_text())["network"]))
-    for name in WEIGHT_FILES:
-        weights = directory / name
-        if weights.is_file():
-            if name.endswith(".safetensors"):
-                state = load_file(str(weights))
-            else:
-                state = torch.load(weights, map_location="cpu", weights_only=True)
-            break
-    else:
-        raise FileNotFoundError(f"{directory} has none of {', '.join(WEIGHT_FILES)}")
-    model.load_state_dict({k: v.float() for k, v in state.items()})
+    model.load_state_dict(load_float32_state(directory))
     return model.eval()

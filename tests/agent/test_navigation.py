@@ -36,7 +36,7 @@ from agent.navigation.exploration import (
 from agent.navigation.fmm import FmmConfig, FmmNavigator, LatticeGraph, lattice_cost_field
 from agent.navigation.goals import ReachConfig, interaction_goal_cells
 from agent.navigation.vin import VinNavigator
-from bench.navigation import fewest_moves
+from bench.navigation import add_box, add_partition, fewest_moves
 from harness.sim.navgrid import CLEARANCE_M
 from symbolic.registry import UnknownName
 from symbolic.thor import AGENT_RADIUS_M, GRID_STEP_M
@@ -662,18 +662,12 @@ def maze_room(seed: int) -> tuple[np.ndarray, tuple[int, int], NavGoal, int]:
     for axis in (0, 1):
         at = int(rng.integers(45, 95))
         door = int(rng.integers(10, 110))
-        wall = np.zeros_like(obstacles)
-        wall[at : at + 3, :] = True
-        wall[at : at + 3, door : door + 18] = False  # 0.9 m doorway
-        obstacles |= wall if axis == 0 else wall.T
+        add_partition(obstacles, at, door, across_columns=axis == 1)
     furniture = []
     for _ in range(5):
         w, d = rng.integers(8, 24, size=2)
         i, j = rng.integers(5, 135 - 24, size=2)
-        piece = np.zeros_like(obstacles)
-        piece[i : i + w, j : j + d] = True
-        furniture.append(piece)
-        obstacles |= piece
+        furniture.append(add_box(obstacles, i, j, w, d))
     fits = body_fits(obstacles, CELL_M, AGENT_RADIUS_M)
     starts = np.argwhere(fits)
     for _ in range(100):

@@ -6,6 +6,7 @@ import numpy as np
 
 from agent.classes import load_class_index
 from agent.executor.clicks import ClickConfig, pixel_distances, usable_pixels
+from agent.executor.config import SearchConfig
 from agent.executor.sightings import facing, mark_searched, mark_visited, note, observe
 from agent.executor.state import ContainerVisit, Sighting
 from agent.geometry import Camera, Pose
@@ -14,6 +15,7 @@ from harness.render.renderer import Renderer
 from harness.world.model import AgentState, Room, World, WorldObject, make_object_id
 
 CAMERA = Camera(300, 300, 90.0)
+CFG = SearchConfig()
 
 
 def _cabinet(x: float, y: float, z: float) -> WorldObject:
@@ -38,7 +40,7 @@ def _look(world: World) -> list[Sighting]:
         class_ids[frame.instances == instance_id] = classes.id_of(object_type)
     kinds = {classes.id_of("Cabinet"): "Cabinet", classes.id_of("Fridge"): "Fridge"}
     sightings: list[Sighting] = []
-    note(sightings, observe(class_ids, frame.instances, frame.depth, usable, CAMERA, pose, kinds))
+    note(sightings, observe(class_ids, frame.instances, frame.depth, usable, CAMERA, pose, kinds, CFG), CFG)
     return sightings
 
 
@@ -55,7 +57,7 @@ def test_each_cabinet_of_a_row_is_one_sighting_facing_the_room_even_seen_from_as
 def test_a_sighting_opened_for_a_target_is_not_offered_again_for_it() -> None:
     sightings = _look(_row_world(AgentState(x=2.5, z=3.125, yaw=0, horizon=30)))
     first = sightings[0]
-    mark_searched(sightings, "Cabinet", first.point, first.instance_id, "Mug")
+    mark_searched(sightings, "Cabinet", first.point, first.instance_id, "Mug", CFG)
     assert first.searched_for == ["Mug"]
     assert sightings[1].searched_for == [], "its neighbour still needs opening"
 
@@ -67,6 +69,6 @@ def test_a_container_visited_for_a_target_is_done_with_though_its_door_was_click
     wall_cabinet = Sighting("Cabinet", (-0.49, 1.77, 1.92), 3, 900)
     neighbour = Sighting("Cabinet", (0.60, 1.77, 1.92), 4, 900)
     visit = ContainerVisit("Cabinet", wall_cabinet.point, 1.5, opened_at=(-0.30, 1.55, 1.80), instance_id=17)
-    mark_visited([wall_cabinet, neighbour], visit, "Pot")
+    mark_visited([wall_cabinet, neighbour], visit, "Pot", CFG)
     assert wall_cabinet.searched_for == ["Pot"]
     assert neighbour.searched_for == [], "the cabinet beside it still needs opening"

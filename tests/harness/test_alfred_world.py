@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from harness.expert.navigation import SightOracle
-from harness.render.camera import CameraSpec
+from harness.render.camera import ALFRED_CAMERA, CameraSpec
 from harness.render.renderer import Renderer
 from harness.sim.navgrid import reachable_grid
 from harness.tasks.alfred import alfred_task_from_traj
@@ -429,7 +429,7 @@ def test_fixtures_stand_where_the_plan_uses_them(
 def test_start_views_show_the_room(sample: list[Built]) -> None:
     """From ALFRED's camera at the start, turning in place shows objects (a few starts face a wall at first,
     as ALFRED's do)."""
-    renderer = Renderer(CameraSpec(ALFRED_IMAGE_SIDE, ALFRED_IMAGE_SIDE, ALFRED_HFOV_DEG))
+    renderer = Renderer(ALFRED_CAMERA)
     at_start = around = 0
     for built in sample:
         seen = []

@@ -1,10 +1,11 @@
 """The live pages: a list of the caller's sessions, one page per session, and the event stream that feeds it.
 
-The pages and their script are static files shipped in the package (``app/static``; no CDN, no build step),
-so they answer without a key and hold no session data. The script reads an API key, when the service needs
-one, from the page address's fragment (``/v1/view#key=KEY``: a fragment never reaches a server or its logs)
-and sends it as ``Authorization: Bearer`` with every request, the event stream included (it reads the stream
-with ``fetch``, which can send headers where ``EventSource`` cannot).
+The pages and their script are static files shipped in the package (``app/static``; no CDN, no build step;
+each page's content goes into the frame all pages share, ``page.html``), so they answer without a key and
+hold no session data. The script reads an API key, when the service needs one, from the page address's
+fragment (``/v1/view#key=KEY``: a fragment never reaches a server or its logs) and sends it as
+``Authorization: Bearer`` with every request, the event stream included (it reads the stream with ``fetch``,
+which can send headers where ``EventSource`` cannot).
 
 ``GET /v1/sessions/{id}/events`` is a server-sent event stream of the session's views (``app.live_view``):
 one ``view`` event per completed change, its ``id`` the view's revision (``<steps>.<turns>``), so a client
@@ -17,6 +18,7 @@ thread is held per watching client.
 from __future__ import annotations
 
 import asyncio
+import string
 import time
 from collections.abc import AsyncIterator
 from functools import cache
@@ -47,16 +49,25 @@ def _static(name: str) -> bytes:
     return resources.files("app").joinpath("static", name).read_bytes()
 
 
+@cache
+def _page(name: str) -> bytes:
+    """Live page ``name``: ``static/<name>.html`` in the frame every page shares (``static/page.html``: the
+    head with its title and style sheet, the script)."""
+    frame = string.Template(_static("page.html").decode())
+    content = _static(f"{name}.html").decode().removesuffix("\n")
+    return frame.substitute(page=name, content=content).encode()
+
+
 @router.get("/v1/view", response_class=HTMLResponse)
 async def sessions_page() -> HTMLResponse:
     """The caller's sessions, as links to their pages (the script fetches ``GET /v1/sessions``)."""
-    return HTMLResponse(_static("sessions.html"))
+    return HTMLResponse(_page("sessions"))
 
 
 @router.get("/v1/sessions/{session_id}/view", response_class=HTMLResponse)
 async def session_page(session_id: str) -> HTMLResponse:
     """One session, live: the same static page for every id (the script follows the id's event stream)."""
-    return HTMLResponse(_static("session.html"))
+    return HTMLResponse(_page("session"))
 
 
 @router.get("/v1/view/live.js")
