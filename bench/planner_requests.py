@@ -1,15 +1,18 @@
-"""Plans before and after the request pass (``symbolic.request_cover``) on words not written for the model.
+"""Plans before and after the request passes (``symbolic.request_corrections``, ``symbolic.request_cover``) on
+words not written for the model.
 
 Issue 62: the planner handles one object where people ask for several ("clean two plates and two cups",
-"clean a mug and a pan"). The service repairs the model's plan and, since issue 62, first makes it cover the
+"clean a mug and a pan") and keeps the word a commander took back ("sorry, not the desk, the sofa"). The
+service repairs the model's plan and, since issue 62, first makes it follow the corrections and cover the
 counts and "x and y" of the commander's words. This bench decodes every dialogue once with the default
 checkpoint and scores three plans against the reference: the model's validated plan against the reference
 as written ("model"), the repaired plan against the repaired reference ("repaired", the service before the
-pass), and the plan after the pass and repair against the same ("covered", the service now). It lists
-every dialogue the pass changed, and whether that gained or lost an exact match.
+passes), and the plan after the passes and repair against the same ("covered", the service now). It lists
+every dialogue the passes changed, and whether that gained or lost an exact match.
 
 Sets: the 30 hand-written dialogues (``tests/data/handwritten_dialogues.jsonl``), the 40 dialogues with
-counts and conjunctions (``tests/data/quantity_dialogues.jsonl``, per phenomenon too), ALFRED valid_seen
+counts and conjunctions (``tests/data/quantity_dialogues.jsonl``), the 100 held-out dialogues of a second
+writer (``tests/data/heldout_dialogues.jsonl``; both per phenomenon too), ALFRED valid_seen
 ``task_desc`` (the shared data), and generated valid_unseen EDH/TfD instances when ``--teach`` names a
 folder ``python -m harness generate --split valid_unseen`` wrote.
 
@@ -37,6 +40,7 @@ from symbolic.cli_args import existing_dir
 from symbolic.data_dir import default_data_dir
 from symbolic.ontology import Ontology, UnknownObjectType, load_ontology
 from symbolic.repair import repair_plan
+from symbolic.request_corrections import follow_corrections, read_corrections
 from symbolic.request_cover import cover_request
 from symbolic.request_words import object_words, read_request
 from symbolic.subgoals import (
@@ -157,7 +161,10 @@ def score_set(name: str, dialogues: Sequence[Dialogue], ontology: Ontology) -> d
         repaired = repair_plan(model, ontology, belief.copy()).plan
         started = time.perf_counter()
         request = read_request(dialogue.commander_words, words)
-        extended, events = cover_request(model, request, ontology, dialogue.history)
+        corrections = read_corrections(dialogue.commander_words, words)
+        followed, fixes = follow_corrections(model, corrections, request.mentions, ontology)
+        extended, events = cover_request(followed, request, ontology, dialogue.history)
+        events = [*fixes, *events]
         pass_ms.append((time.perf_counter() - started) * 1000)
         covered = repair_plan(extended, ontology, belief.copy()).plan
         rows["model"].append((model, list(dialogue.reference)))
@@ -207,6 +214,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sets: dict[str, list[Dialogue]] = {
         "handwritten": jsonl_dialogues(TESTS_DATA / "handwritten_dialogues.jsonl", ontology),
         "quantity": jsonl_dialogues(TESTS_DATA / "quantity_dialogues.jsonl", ontology),
+        "heldout": jsonl_dialogues(TESTS_DATA / "heldout_dialogues.jsonl", ontology),
     }
     alfred = default_data_dir() / "alfred" / "valid_seen.jsonl.gz"
     if alfred.is_file() and not args.skip_alfred:
@@ -219,7 +227,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     result = {
         "checkpoint": str(DEFAULT_CHECKPOINT_DIR.relative_to(REPO_ROOT)),
         "scored": "model: validated plan vs reference; repaired: repair_plan of both; covered: "
-        "cover_request then repair_plan vs the repaired reference",
+        "follow_corrections, cover_request then repair_plan vs the repaired reference",
         "sets": reports,
         "wall_s": round(time.perf_counter() - started, 1),
     }
