@@ -4,7 +4,10 @@ A result is compared with others long after it was made, when the code, the libr
 may have changed; a number that cannot say what produced it cannot be compared. So every bench script starts
 a ``BenchRun`` before it measures and writes its JSON through ``BenchRun.write``, which puts one ``"stamp"``
 object first: the commit and whether the working tree differed from it, the command line, the machine, the
-thread counts, the versions of the project's libraries and the load average at start and end.
+thread counts, the versions of the project's libraries, the load average at start and end, the share of CPU
+time the host took away during the run (steal, on a virtual machine) and a fixed workload's time at start and
+end. The last two say whether a slower figure is the code's or the machine's: on a shared host the same code
+has measured twice as slow.
 ``tests/bench/test_results_stamped.py`` holds every committed file in ``bench/results/`` to it.
 """
 
@@ -31,6 +34,8 @@ PROJECT = "jarvis-service"
 """The distribution whose declared dependencies are the libraries a stamp lists."""
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 UNKNOWN_COMMIT = "unknown"
+PROBE_ITERATIONS = 1_000_000
+"""Additions in ``speed_probe_ms`` (tens of milliseconds: short beside any bench)."""
 
 
 def results_path(name: str) -> Path:
@@ -114,6 +119,37 @@ def load_average() -> list[float]:
     return [round(value, 2) for value in os.getloadavg()]
 
 
+def cpu_times() -> tuple[int, int] | None:
+    """(steal, total) clock ticks of all CPUs since boot, from ``/proc/stat``; None where there is none.
+    Steal is time a virtual machine's CPUs were ready to run but the host ran something else."""
+    try:
+        fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()
+    except OSError:
+        return None
+    ticks = [int(value) for value in fields[1:]]
+    return (ticks[7] if len(ticks) > 7 else 0), sum(ticks[:8])
+
+
+def steal_share(start: tuple[int, int] | None, end: tuple[int, int] | None) -> float | None:
+    """The share of CPU time the host took from this machine between two ``cpu_times``."""
+    if start is None or end is None or end[1] <= start[1]:
+        return None
+    return round((end[0] - start[0]) / (end[1] - start[1]), 3)
+
+
+def speed_probe_ms(repeats: int = 5) -> float:
+    """Milliseconds of one fixed pure-Python workload (the fastest of ``repeats``): how fast a core is right
+    now. A shared host that is busy, or a slower CPU, shows here before it shows in a bench's medians."""
+    best = float("inf")
+    for _ in range(repeats):
+        started = time.perf_counter()
+        total = 0
+        for value in range(PROBE_ITERATIONS):
+            total += value
+        best = min(best, time.perf_counter() - started)
+    return round(best * 1e3, 2)
+
+
 def runs_for_commit(folder: Path, commit: str) -> Path:
     """``folder``, ready to resume only episodes run by this commit's code: a folder left by another
     commit (or by one not recorded) is cleared first, and said so, so a bench never mixes code versions."""
@@ -138,6 +174,8 @@ class BenchRun:
     uncommitted: tuple[str, ...]
     started_at: str
     load_average_at_start: tuple[float, ...]
+    cpu_at_start: tuple[int, int] | None
+    speed_probe_ms_at_start: float
     started: float
 
     @classmethod
@@ -151,6 +189,8 @@ class BenchRun:
             uncommitted=tuple(uncommitted_paths()),
             started_at=datetime.now(UTC).isoformat(timespec="seconds"),
             load_average_at_start=tuple(load_average()),
+            cpu_at_start=cpu_times(),
+            speed_probe_ms_at_start=speed_probe_ms(),
             started=time.perf_counter(),
         )
 
@@ -168,6 +208,8 @@ class BenchRun:
             "threads": threads(),
             "libraries": library_versions(libraries),
             "load_average": {"start": list(self.load_average_at_start), "end": load_average()},
+            "cpu_steal_share": steal_share(self.cpu_at_start, cpu_times()),
+            "speed_probe_ms": {"start": self.speed_probe_ms_at_start, "end": speed_probe_ms()},
         }
 
     def write(self, out: Path, report: Mapping[str, Any], libraries: Sequence[str] = ()) -> None:

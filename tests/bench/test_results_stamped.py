@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bench.stamp import REPO_ROOT, RESULTS_DIR, BenchRun, head_commit, uncommitted_paths
+from bench.stamp import REPO_ROOT, RESULTS_DIR, BenchRun, head_commit, steal_share, uncommitted_paths
 
 STAMP_FIELDS = ("bench", "command", "commit", "dirty", "machine", "threads", "libraries", "load_average")
 
@@ -78,6 +78,15 @@ def test_the_writer_puts_the_stamp_first_and_replaces_an_old_one(tmp_path: Path)
     assert stamp["machine"]["cores"] >= 1 and stamp["machine"]["python"]
     assert isinstance(stamp["threads"]["service_per_worker"], int)
     assert len(stamp["load_average"]["start"]) == len(stamp["load_average"]["end"]) == 3
+    steal = stamp["cpu_steal_share"]
+    assert steal is None or 0.0 <= steal <= 1.0
+    assert stamp["speed_probe_ms"]["start"] > 0 and stamp["speed_probe_ms"]["end"] > 0
+
+
+def test_the_steal_share_is_the_hosts_part_of_the_cpu_time_between_two_readings() -> None:
+    assert steal_share((10, 1000), (60, 1500)) == 0.1
+    assert steal_share((10, 1000), (10, 1500)) == 0.0
+    assert steal_share(None, (60, 1500)) is None and steal_share((10, 1000), (10, 1000)) is None
 
 
 @pytest.mark.usefixtures("in_a_checkout")
