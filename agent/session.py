@@ -108,6 +108,21 @@ class SessionLimits:
 
 
 @dataclass(frozen=True)
+class SessionSpec:
+    """What the client chose when it created the session, fixed for the session's life: the API's create
+    request less the conversation itself (``app.session_builder`` makes one from it)."""
+
+    mode: Mode
+    camera: Camera
+    perception: PerceptionName
+    navigator: NavigatorName
+    explorer: ExplorerName = DEFAULT_EXPLORER  # how the search explores for an unmapped target
+    networks: NetworkPaths = NetworkPaths()  # the learned back-end's checkpoints
+    seed: int = 0  # the executor's random choices
+    limits: SessionLimits = SessionLimits()
+
+
+@dataclass(frozen=True)
 class StepDecision:
     """What one step answered; kept so a retried request gets the same answer (idempotent retries)."""
 
@@ -156,24 +171,19 @@ class AgentSession:
     """One conversation: configuration, dialogue, the repaired plan, the map and progress through it."""
 
     session_id: str
-    mode: Mode
-    camera: Camera
-    perception: PerceptionName
-    navigator: NavigatorName
+    spec: SessionSpec
     planner: Planner
-    seed: int
     instruction: str | None
     dialogue: list[DialogueTurn]
     history_subgoals: tuple[Subgoal, ...]
-    plan: list[Subgoal]
-    plan_source: PlanSource
-    repair_log: list[RepairEvent]
     created_at: datetime
     updated_at: datetime
     executor: Executor
     perception_backend: Perception = field(repr=False)
     ontology: Ontology = field(repr=False)
-    limits: SessionLimits = field(default_factory=SessionLimits)
+    plan: list[Subgoal] = field(default_factory=list)
+    plan_source: PlanSource = "none"
+    repair_log: list[RepairEvent] = field(default_factory=list)
     pointer: int = 0  # index into ``plan`` of the subgoal being executed
     step: int = 0  # actions returned so far (TEACh stops at thor.MAX_STEPS)
     done: bool = False
@@ -190,9 +200,7 @@ class AgentSession:
     last_target: str | None = None
     trace: Trace = field(default_factory=Trace, repr=False)
     executor_size: int | None = None  # bytes, last measured by ``_executor_size``
-    explorer: ExplorerName = DEFAULT_EXPLORER  # how the search explores for an unmapped target
     progress_replans: int = 0  # re-plans made because the plan ran out or failed
-    networks: NetworkPaths = field(default_factory=NetworkPaths)  # the learned back-end's checkpoints
     success_config: SuccessConfig = field(default_factory=SuccessConfig)
     hand: HandRegion = field(default_factory=HandRegion)  # where a held object shows in the frame
 
@@ -200,15 +208,9 @@ class AgentSession:
     def start(
         cls,
         session_id: str,
-        *,
-        mode: Mode,
-        camera: Camera,
-        perception: PerceptionName,
-        navigator: NavigatorName,
+        spec: SessionSpec,
         planner: Planner,
-        explorer: ExplorerName = DEFAULT_EXPLORER,
-        networks: NetworkPaths = NetworkPaths(),
-        seed: int = 0,
+        *,
         instruction: str | None = None,
         dialogue: Sequence[DialogueTurn] = (),
         history_subgoals: Sequence[Subgoal] = (),
@@ -216,7 +218,6 @@ class AgentSession:
         perception_backend: Perception | None = None,
         history: Sequence[HistoryStep] = (),
         history_start: Pose | None = None,
-        limits: SessionLimits | None = None,
         ontology: Ontology | None = None,
         now: datetime | None = None,
     ) -> AgentSession:
@@ -231,47 +232,36 @@ class AgentSession:
             given_subgoals=given_subgoals,
         )
         outcome = planner.plan(context)
-        backend = perception_backend or make_perception(perception, camera, networks)
-        limits = limits or SessionLimits()
-        look_step = ALFRED_LOOK_STEP_DEG if mode == "instruction" else TEACH_LOOK_STEP_DEG
+        backend = perception_backend or make_perception(spec.perception, spec.camera, spec.networks)
+        look_step = ALFRED_LOOK_STEP_DEG if spec.mode == "instruction" else TEACH_LOOK_STEP_DEG
         executor = Executor(
             ontology,
-            make_navigator(navigator, STAND_CLEARANCE_M),
+            make_navigator(spec.navigator, STAND_CLEARANCE_M),
             belief_after(history_subgoals, ontology),
-            np.random.default_rng(seed),
+            np.random.default_rng(spec.seed),
             ExecutorConfig(
                 look_step_deg=look_step,
-                max_steps=limits.max_steps,
-                max_failed_actions=limits.max_failed_actions,
-                explorer=explorer,
+                max_steps=spec.limits.max_steps,
+                max_failed_actions=spec.limits.max_failed_actions,
+                explorer=spec.explorer,
             ),
         )
         started = now or datetime.now(UTC)
         session = cls(
             session_id=session_id,
-            mode=mode,
-            camera=camera,
-            perception=perception,
-            navigator=navigator,
+            spec=spec,
             planner=planner,
-            seed=seed,
             instruction=instruction,
+            given_subgoals=given_subgoals,
             dialogue=list(dialogue),
-            explorer=explorer,
-            networks=networks,
             history_subgoals=tuple(history_subgoals),
-            plan=list(outcome.plan),
-            plan_source=outcome.source,
-            repair_log=list(outcome.repair_log),
             created_at=started,
             updated_at=started,
             executor=executor,
             perception_backend=backend,
             ontology=ontology,
-            limits=limits,
-            given_subgoals=given_subgoals,
         )
-        session._adopt_hints(outcome)
+        session._adopt_plan(outcome)
         if history:
             session._replay(history, history_start)
         return session
@@ -288,15 +278,19 @@ class AgentSession:
         replanned = speaker == "Commander" and self.planner.replans_on_dialogue
         if replanned:
             outcome = self.planner.plan(self._planning_context([*self.dialogue, turn]))
-            self.plan = list(outcome.plan)
-            self.plan_source = outcome.source
-            self.repair_log = list(outcome.repair_log)
-            self.pointer = 0
+            self._adopt_plan(outcome)
             self.done = False
-            self._adopt_hints(outcome)
         self.dialogue.append(turn)
         self.updated_at = now or datetime.now(UTC)
         return replanned
+
+    def _adopt_plan(self, outcome: PlanOutcome) -> None:
+        """A plan read from the whole conversation replaces the plan, its repair log and its progress."""
+        self.plan = list(outcome.plan)
+        self.plan_source = outcome.source
+        self.repair_log = list(outcome.repair_log)
+        self.pointer = 0
+        self._adopt_hints(outcome)
 
     def _adopt_hints(self, outcome: PlanOutcome) -> None:
         """A new plan for the executor, with the commander's stand and click hints, stand poses in the map's
@@ -386,12 +380,12 @@ class AgentSession:
         if (
             verdict.holding and percept.depth_far is not None
         ):  # estimated depth cannot tell the hand by nearness
-            hand = self.hand.mask(self.camera)
+            hand = self.hand.mask(self.spec.camera)
             hand_class_ids = np.where(hand, percept.class_ids, 0)
             percept = without_hand(percept, hand)
         stats = semantic_map.update(percept, pose, holding=verdict.holding)
         mapped = time.perf_counter()
-        view = self.executor.map_view(semantic_map, percept, self.camera, pose, verdict, hand_class_ids)
+        view = self.executor.map_view(semantic_map, percept, self.spec.camera, pose, verdict, hand_class_ids)
         inputs = StepInputs(index, pose, view, obs, frame_digest, verdict)
         decision = self.executor.decide(inputs, self.plan, self.pointer)
         events = list(decision.events)
@@ -453,7 +447,7 @@ class AgentSession:
         """The caller's pose when given, else dead reckoning from the previous pose (DESIGN.md §3)."""
         if mapped is not None:
             return mapped
-        previous = self.pose or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.mode, 0.0))
+        previous = self.pose or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.spec.mode, 0.0))
         return track_pose(
             previous,
             reported=None,
@@ -468,9 +462,13 @@ class AgentSession:
         oracle's plan is the plan), never in TATC (the follower asks its commander instead) nor after a
         commander's explicit command, and at most ``max_progress_replans`` times, so a model that keeps
         proposing what fails cannot loop."""
-        if not self.planner.replans_on_dialogue or self.mode == "tatc" or self.plan_source == "commander":
+        if (
+            not self.planner.replans_on_dialogue
+            or self.spec.mode == "tatc"
+            or self.plan_source == "commander"
+        ):
             return None  # a commander's explicit instruction is not second-guessed
-        if self.progress_replans >= self.limits.max_progress_replans:
+        if self.progress_replans >= self.spec.limits.max_progress_replans:
             return None
         return decision.replan
 
@@ -492,7 +490,7 @@ class AgentSession:
 
     def _ensure_map(self, pose: Pose) -> SemanticMap:
         if self.semantic_map is None:
-            self.semantic_map = SemanticMap(self.camera, pose, MapConfig())
+            self.semantic_map = SemanticMap(self.spec.camera, pose, MapConfig())
         return self.semantic_map
 
     def _apply(self, decision: Decision) -> None:
@@ -503,57 +501,47 @@ class AgentSession:
     def _answer(self, index: int, decision: Decision, now: datetime | None) -> StepDecision:
         utterance = decision.question
         done = decision.stop
-        if decision.plan_done and self.mode == "tatc":
+        if decision.plan_done and self.spec.mode == "tatc":
             utterance = ASK_NEXT
             done = not self.planner.replans_on_dialogue  # the commander's next turn can give a new plan
         self.done = done
         self.step = index + 1
         self.updated_at = now or datetime.now(UTC)
-        subgoal = self.current_subgoal()
-        result = StepDecision(
-            step=index,
-            action=decision.action,
-            x=decision.x,
-            y=decision.y,
-            subgoal=subgoal,
-            plan=tuple(self.plan),
-            pointer=self.pointer,
-            plan_source=self.plan_source,
-            repair_log=tuple(self.repair_log),
-            utterance=utterance,
-            done=done,
-            reason=decision.reason,
-        )
-        self.last_decision = result
-        return result
+        return self._decided(index, decision.action, decision.x, decision.y, utterance, done, decision.reason)
 
     def _record_final(self, index: int, reason: str, now: datetime | None) -> StepDecision:
         """After the episode ended: Stop again (TEACh's runners stop calling; curl may not)."""
         self.step = index + 1
         self.updated_at = now or datetime.now(UTC)
-        result = StepDecision(
-            step=index,
-            action="Stop",
-            x=None,
-            y=None,
+        result = self._decided(index, "Stop", None, None, None, True, reason)
+        self.last_action = "Stop"
+        return result
+
+    def _decided(
+        self, step: int, action: str, x: float | None, y: float | None, said: str | None, done: bool, why: str
+    ) -> StepDecision:
+        """Step ``step``'s answer with the plan as it now stands, kept to answer a retried request again."""
+        self.last_decision = StepDecision(
+            step=step,
+            action=action,
+            x=x,
+            y=y,
             subgoal=self.current_subgoal(),
             plan=tuple(self.plan),
             pointer=self.pointer,
             plan_source=self.plan_source,
             repair_log=tuple(self.repair_log),
-            utterance=None,
-            done=True,
-            reason=reason,
+            utterance=said,
+            done=done,
+            reason=why,
         )
-        self.last_decision = result
-        self.last_action = "Stop"
-        return result
+        return self.last_decision
 
     # ----- EDH history -------------------------------------------------------------------------------
     def _replay(self, history: Sequence[HistoryStep], start: Pose | None) -> None:
         """Project the history frames into the map at their dead-reckoned poses (Algorithm 2 l. 47-55);
         remember where the history acted on objects when its frames have depth."""
-        origin = start or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.mode, 0.0))
+        origin = start or Pose(0.0, 0.0, 0.0, START_HORIZON_DEG.get(self.spec.mode, 0.0))
         actions = [h.action for h in history]
         poses = history_poses(actions, origin, self.look_step_deg)
         holding = holding_before(actions)
@@ -567,7 +555,7 @@ class AgentSession:
             except ObservationError:
                 continue  # a frame this back-end cannot read (TEACh's RGB-only history, oracle perception)
             if held and percept.depth_far is not None:
-                percept = without_hand(percept, self.hand.mask(self.camera))
+                percept = without_hand(percept, self.hand.mask(self.spec.camera))
             semantic_map.update(percept, pose, holding=held)
             if entry.action in OBJECT_ACTIONS and entry.x is not None and entry.y is not None:
                 self._remember_click(entry, percept.depth, pose)
@@ -588,14 +576,14 @@ class AgentSession:
             return
         mask = np.zeros((H, W), dtype=bool)
         mask[row, col] = True
-        point = depth_to_points(depth, self.camera, pose, mask)[0]
+        point = depth_to_points(depth, self.spec.camera, pose, mask)[0]
         self.executor.remember(object_type, (float(point[0]), float(point[1]), float(point[2])))
 
     # ----- what a person can look at -----------------------------------------------------------------
     def map_png(self) -> bytes:
         """The semantic map picture (agent, planned path, current target, legend); an empty map before the
         first step."""
-        semantic_map = self.semantic_map or SemanticMap(self.camera, Pose(0.0, 0.0), MapConfig())
+        semantic_map = self.semantic_map or SemanticMap(self.spec.camera, Pose(0.0, 0.0), MapConfig())
         current = self.current_subgoal()
         return render_map_png(
             semantic_map,
@@ -653,8 +641,9 @@ class AgentSession:
         if not isinstance(session, AgentSession):
             raise SnapshotError(f"snapshot holds a {type(session).__name__}, not a session")
         if networks is not None:
-            session.networks = networks
-        session.perception_backend = make_perception(session.perception, session.camera, session.networks)
+            session.spec = replace(session.spec, networks=networks)
+        spec = session.spec
+        session.perception_backend = make_perception(spec.perception, spec.camera, spec.networks)
         return session
 
 

@@ -69,7 +69,7 @@ from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 MAGIC = b"JARVSNAP"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Bump on any change to the layout or the meaning of a node; older snapshots are then refused, not
 mis-read (a session restarts rather than resumes from a state it would misunderstand)."""
 _HEADER = struct.Struct(">8sH")
@@ -144,9 +144,15 @@ def allowed_classes() -> dict[str, type]:
     """The classes a session snapshot may hold, by ``module.qualname``: the session's dataclasses, the few
     plain classes of its graph, and the enums. A class outside it is refused both ways, so a new field of
     a new type fails a test instead of being stored unchecked (or, worse, loaded from untrusted bytes)."""
-    from agent.session import AgentSession, FrameAlignment, SessionLimits, StepDecision  # imports us
+    from agent.session import (  # imports us
+        AgentSession,
+        FrameAlignment,
+        SessionLimits,
+        SessionSpec,
+        StepDecision,
+    )
 
-    session = (AgentSession, SessionLimits, StepDecision, FrameAlignment)
+    session = (AgentSession, SessionSpec, SessionLimits, StepDecision, FrameAlignment)
     return {_class_name(cls): cls for cls in (*session, *_CLASSES)}
 
 

@@ -317,15 +317,8 @@ class RedisSessionStore:
         return StoredSession(session, owner, orjson.loads(meta))
 
     # ----- the interface ------------------------------------------------------------------------------
-    def create(
-        self,
-        session: AgentSession,
-        owner: str | None,
-        meta: dict[str, Any] | None = None,
-        *,
-        owner_cap: int | None = None,
-    ) -> None:
-        stored = StoredSession(session, owner, dict(meta or {}))
+    def create(self, stored: StoredSession, *, owner_cap: int | None = None) -> None:
+        session, owner = stored.session, stored.owner
         snapshot, meta_json = self._encode(stored)
         view = stored.publish(None)
         result = self._create(

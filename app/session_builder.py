@@ -22,7 +22,7 @@ from agent.planning import (
     SubgoalsRequired,
     make_planner,
 )
-from agent.session import AgentSession, Mode, SessionLimits
+from agent.session import AgentSession, Mode, SessionLimits, SessionSpec
 from app.errors import (
     HISTORY_MISMATCH,
     INVALID_SUBGOALS,
@@ -260,14 +260,17 @@ def build_session(
     with planning_errors_as_api_errors("subgoals"):
         return AgentSession.start(
             session_id,
-            mode=body.mode,
-            camera=camera,
-            perception=body.perception,
-            navigator=body.navigator,
-            planner=planner,
-            explorer=body.explorer,
-            networks=networks,
-            seed=body.seed,
+            SessionSpec(
+                mode=body.mode,
+                camera=camera,
+                perception=body.perception,
+                navigator=body.navigator,
+                explorer=body.explorer,
+                networks=networks,
+                seed=body.seed,
+                limits=SessionLimits(settings.max_steps, settings.max_failed_actions),
+            ),
+            planner,
             instruction=body.instruction,
             dialogue=[DialogueTurn(turn.normalized_speaker(), turn.text) for turn in body.dialogue],
             history_subgoals=history_subgoals,
@@ -275,9 +278,6 @@ def build_session(
             perception_backend=backend,
             history=history,
             history_start=Pose(start.x, start.z, start.yaw, start.horizon) if start is not None else None,
-            limits=SessionLimits(
-                max_steps=settings.max_steps, max_failed_actions=settings.max_failed_actions
-            ),
             ontology=ontology,
             now=now,
         )

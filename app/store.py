@@ -80,14 +80,7 @@ class StoredSession:
 class SessionStore(Protocol):
     """Live sessions by id, bounded in number and idle time, each owned by one API key (or by nobody)."""
 
-    def create(
-        self,
-        session: AgentSession,
-        owner: str | None,
-        meta: dict[str, Any] | None = None,
-        *,
-        owner_cap: int | None = None,
-    ) -> None:
+    def create(self, stored: StoredSession, *, owner_cap: int | None = None) -> None:
         """Add a new session; raises StoreFull at capacity (or at ``owner_cap`` sessions of this owner)."""
         ...
 
@@ -182,27 +175,20 @@ class InMemorySessionStore:
         self._names: dict[tuple[str | None, str], str] = {}  # insertion order is oldest first
         self._guard = threading.Lock()
 
-    def create(
-        self,
-        session: AgentSession,
-        owner: str | None,
-        meta: dict[str, Any] | None = None,
-        *,
-        owner_cap: int | None = None,
-    ) -> None:
+    def create(self, stored: StoredSession, *, owner_cap: int | None = None) -> None:
+        session_id = stored.session.session_id
         with self._guard:
             self._evict_idle()
-            if session.session_id in self._entries:
-                raise ValueError(f"session id {session.session_id} is already in use")
+            if session_id in self._entries:
+                raise ValueError(f"session id {session_id} is already in use")
             if len(self._entries) >= self.max_sessions:
                 raise StoreFull(self.max_sessions, self._retry_after(self._entries.values()))
             if owner_cap is not None:
-                mine = [e for e in self._entries.values() if e.stored.owner == owner]
+                mine = [e for e in self._entries.values() if e.stored.owner == stored.owner]
                 if len(mine) >= owner_cap:
                     raise StoreFull(owner_cap, self._retry_after(mine), per_owner=True)
-            stored = StoredSession(session, owner, dict(meta or {}))
             view = stored.publish(None)
-            self._entries[session.session_id] = _Entry(stored=stored, last_used=self._clock(), view=view)
+            self._entries[session_id] = _Entry(stored=stored, last_used=self._clock(), view=view)
 
     @contextmanager
     def _holding(

@@ -304,10 +304,10 @@ def _store_evicting_finished(
     """Store the session; when the store (or the caller's share) is full, first drop the caller's finished
     TEACh sessions, oldest first (the runner never deletes them: after Stop, or its 30 failed actions, it
     just starts the next instance)."""
-    notes = {TEACH_NOTES: episode.notes()}
+    stored = StoredSession(session, caller.owner, {TEACH_NOTES: episode.notes()})
     cap = owner_cap(caller, settings)
     try:
-        store.create(session, caller.owner, notes, owner_cap=cap)
+        store.create(stored, owner_cap=cap)
         return
     except StoreFull:
         pass
@@ -316,7 +316,7 @@ def _store_evicting_finished(
             store.unbind_name(caller.owner, name)
             _delete_quietly(store, session_id, caller.owner)
     try:
-        store.create(session, caller.owner, notes, owner_cap=cap)
+        store.create(stored, owner_cap=cap)
     except StoreFull as error:
         raise too_many_sessions(error, settings) from error
 
@@ -457,7 +457,7 @@ def next_action(
             rules = StepRules(
                 repeats_last=lambda _, __: img_name is not None and img_name == episode.last_img_name,
                 check_order=lambda session: _check_prev_action(prev, session, name),
-                observe=lambda session: rgb_observation(img, session.camera, ontology, "img"),
+                observe=lambda session: rgb_observation(img, session.spec.camera, ontology, "img"),
                 field_names={"rgb": "img"},
             )
             run = run_step(held, rules, metrics)

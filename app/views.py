@@ -68,18 +68,18 @@ def step_result(decision: StepDecision) -> StepResult:
 
 
 def session_public(session: AgentSession) -> SessionPublic:
-    camera = session.camera
+    spec, camera = session.spec, session.spec.camera
     return SessionPublic(
         session_id=session.session_id,
-        mode=session.mode,
+        mode=spec.mode,
         camera=CameraSpec(
             width=camera.width, height=camera.height, hfov_deg=camera.hfov_deg, height_m=camera.height_m
         ),
-        perception=session.perception,
+        perception=spec.perception,
         planner=session.planner.name,
-        navigator=session.navigator,
-        explorer=session.explorer,
-        seed=session.seed,
+        navigator=spec.navigator,
+        explorer=spec.explorer,
+        seed=spec.seed,
         instruction=session.instruction,
         plan=plan_out(session),
         history_subgoals=_subgoals_out(session.history_subgoals),

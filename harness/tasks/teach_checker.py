@@ -361,137 +361,151 @@ def _check_relation(
     tails = _relation_heads(relation.tail_entity, satisfied, candidates)
     if not tails:
         return SubgoalStatus("", False, (), (), total, 0, fallback_desc=relation.failure_desc)
+    check = _RelationCheck(relation, heads, tails, scene, num_task_instances, total)
     if relation.tail_determiner == "a":
-        return _check_relation_any_tail(relation, heads, tails, scene, num_task_instances, total)
+        return check.any_tail()
     if relation.tail_determiner == "the":
-        return _check_relation_one_tail(relation, heads, tails, scene, num_task_instances, total)
+        return check.one_tail()
     raise ValueError(
         f"relation tail determiner {relation.tail_determiner!r} is not supported (TEACh: 'a', 'the')"
     )
 
 
-def _relation_problem(
-    relation: Relation, obj: ObjectMetadata, det: str, tail_type: str
-) -> tuple[ProgressStep, ProblemKey]:
-    return (
-        ProgressStep(False, obj["objectId"], obj["objectType"], relation.failure_desc),
-        ProblemKey(obj["objectId"], obj["objectType"], det, relation.property, tail_type),
-    )
+@dataclass(frozen=True)
+class _RelationCheck:
+    """One relation with its head and tail objects: what both of TEACh's tail rules weigh and report."""
 
+    relation: Relation
+    heads: Mapping[str, list[ObjectMetadata]]
+    tails: list[ObjectMetadata]
+    scene: _Scene
+    num_task_instances: int
+    total: int
 
-def _check_relation_any_tail(
-    relation: Relation,
-    heads: Mapping[str, list[ObjectMetadata]],
-    tails: list[ObjectMetadata],
-    scene: _Scene,
-    num_task_instances: int,
-    total: int,
-) -> SubgoalStatus:
-    """Each head object may sit in any tail object. Kept quirk: satisfied heads are not capped at the need."""
-    tail_ids = {t["objectId"] for t in tails}
-    tail_type = tails[0]["objectType"]
-    success = True
-    satisfied_count = 0
-    steps: list[ProgressStep] = []
-    keys: list[ProblemKey] = []
-    all_satisfied: list[ObjectMetadata] = []
-    for entity, det in zip(relation.head_entities, relation.head_determiners, strict=True):
-        if det == "0":
-            continue
-        ok_objs, bad_objs = _split_heads(heads[entity], relation.property, tail_ids, scene)
-        satisfied_count += len(ok_objs)
-        if det == "all":
-            if bad_objs:
-                success = False
-                for obj in bad_objs:
-                    step, key = _relation_problem(relation, obj, det, tail_type)
-                    steps.append(step)
-                    keys.append(key)
-            elif ok_objs:
-                steps.append(
-                    ProgressStep(
-                        True, ok_objs[0]["objectId"], ok_objs[0]["objectType"], relation.failure_desc
-                    )
-                )
-        else:
-            needed = num_task_instances * (1 if det == "a" else _count(det, f"relation head {entity!r}"))
-            if len(ok_objs) < needed:
-                success = False
-                for obj in bad_objs[: needed - len(ok_objs)]:
-                    step, key = _relation_problem(relation, obj, det, tail_type)
-                    steps.append(step)
-                    keys.append(key)
-        all_satisfied += ok_objs
-    if success and all_satisfied and not steps:
-        steps.append(
-            ProgressStep(
-                True, all_satisfied[0]["objectId"], all_satisfied[0]["objectType"], relation.failure_desc
-            )
-        )
-    return SubgoalStatus(
-        "", success, tuple(steps), tuple(keys), total, satisfied_count, fallback_desc=relation.failure_desc
-    )
+    def any_tail(self) -> SubgoalStatus:
+        """Each head object may sit in any tail object.
 
-
-def _check_relation_one_tail(
-    relation: Relation,
-    heads: Mapping[str, list[ObjectMetadata]],
-    tails: list[ObjectMetadata],
-    scene: _Scene,
-    num_task_instances: int,
-    total: int,
-) -> SubgoalStatus:
-    """All heads of one task instance must sit in the *same* tail object; the best tails are credited."""
-    satisfied_tails: list[_TailStatus] = []
-    ranked: list[_TailStatus] = []
-    for tail in tails:
-        status = _TailStatus(tail, [])
+        Kept quirk: satisfied heads are not capped at the need.
+        """
+        relation = self.relation
+        tail_ids = {t["objectId"] for t in self.tails}
+        tail_type = self.tails[0]["objectType"]
+        success = True
+        satisfied_count = 0
+        steps: list[ProgressStep] = []
+        keys: list[ProblemKey] = []
+        all_satisfied: list[ObjectMetadata] = []
         for entity, det in zip(relation.head_entities, relation.head_determiners, strict=True):
             if det == "0":
                 continue
-            ok_objs, bad_objs = _split_heads(heads[entity], relation.property, {tail["objectId"]}, scene)
+            ok_objs, bad_objs = _split_heads(self.heads[entity], relation.property, tail_ids, self.scene)
+            satisfied_count += len(ok_objs)
             if det == "all":
-                needed = len(heads[entity])
-            elif det == "a":
-                needed = 1
+                if bad_objs:
+                    success = False
+                    self._report_problems(bad_objs, det, tail_type, steps, keys)
+                elif ok_objs:
+                    steps.append(self._success_step(ok_objs[0]))
             else:
-                needed = _count(det, f"relation head {entity!r}")
-            status.heads.append(_HeadStatus(det, ok_objs, bad_objs, needed))
-        if status.success:
-            satisfied_tails.append(status)
-            if len(satisfied_tails) >= num_task_instances:
-                break
-            continue
-        # TEACh's insertion rule: ahead of the first tail that satisfies fewer heads or fewer instances.
-        position = next(
-            (
-                i
-                for i, cur in enumerate(ranked)
-                if status.num_heads_satisfied > cur.num_heads_satisfied
-                or status.num_instances_satisfied > cur.num_instances_satisfied
-            ),
-            len(ranked),
-        )
-        ranked.insert(position, status)
-        ranked = ranked[: max(0, num_task_instances - len(satisfied_tails))]
+                needed = self.num_task_instances * (
+                    1 if det == "a" else _count(det, f"relation head {entity!r}")
+                )
+                if len(ok_objs) < needed:
+                    success = False
+                    self._report_problems(bad_objs[: needed - len(ok_objs)], det, tail_type, steps, keys)
+            all_satisfied += ok_objs
+        if success and all_satisfied and not steps:
+            steps.append(self._success_step(all_satisfied[0]))
+        return self._status(success, steps, keys, satisfied_count)
 
-    satisfied_count = sum(
-        h.goal_conditions_satisfied for t in satisfied_tails[:num_task_instances] for h in t.heads
-    )
-    steps: list[ProgressStep] = []
-    keys: list[ProblemKey] = []
-    for status in ranked[: max(0, num_task_instances - len(satisfied_tails))]:
-        for head in status.heads:
-            satisfied_count += head.goal_conditions_satisfied
-            missing = head.instances_needed - len(head.satisfied)
-            for obj in head.unsatisfied[: max(0, missing)]:
-                step, key = _relation_problem(relation, obj, head.determiner, status.tail["objectType"])
-                steps.append(step)
-                keys.append(key)
-    success = len(satisfied_tails) >= num_task_instances
-    return SubgoalStatus(
-        "", success, tuple(steps), tuple(keys), total, satisfied_count, fallback_desc=relation.failure_desc
-    )
+    def one_tail(self) -> SubgoalStatus:
+        """All heads of one task instance must sit in the *same* tail object; the best tails are credited."""
+        relation = self.relation
+        num_task_instances = self.num_task_instances
+        satisfied_tails: list[_TailStatus] = []
+        ranked: list[_TailStatus] = []
+        for tail in self.tails:
+            status = _TailStatus(tail, [])
+            for entity, det in zip(relation.head_entities, relation.head_determiners, strict=True):
+                if det == "0":
+                    continue
+                ok_objs, bad_objs = _split_heads(
+                    self.heads[entity], relation.property, {tail["objectId"]}, self.scene
+                )
+                if det == "all":
+                    needed = len(self.heads[entity])
+                elif det == "a":
+                    needed = 1
+                else:
+                    needed = _count(det, f"relation head {entity!r}")
+                status.heads.append(_HeadStatus(det, ok_objs, bad_objs, needed))
+            if status.success:
+                satisfied_tails.append(status)
+                if len(satisfied_tails) >= num_task_instances:
+                    break
+                continue
+            # TEACh's insertion rule: ahead of the first tail that satisfies fewer heads or fewer instances.
+            position = next(
+                (
+                    i
+                    for i, cur in enumerate(ranked)
+                    if status.num_heads_satisfied > cur.num_heads_satisfied
+                    or status.num_instances_satisfied > cur.num_instances_satisfied
+                ),
+                len(ranked),
+            )
+            ranked.insert(position, status)
+            ranked = ranked[: max(0, num_task_instances - len(satisfied_tails))]
+
+        satisfied_count = sum(
+            h.goal_conditions_satisfied for t in satisfied_tails[:num_task_instances] for h in t.heads
+        )
+        steps: list[ProgressStep] = []
+        keys: list[ProblemKey] = []
+        for status in ranked[: max(0, num_task_instances - len(satisfied_tails))]:
+            for head in status.heads:
+                satisfied_count += head.goal_conditions_satisfied
+                missing = head.instances_needed - len(head.satisfied)
+                self._report_problems(
+                    head.unsatisfied[: max(0, missing)],
+                    head.determiner,
+                    status.tail["objectType"],
+                    steps,
+                    keys,
+                )
+        success = len(satisfied_tails) >= num_task_instances
+        return self._status(success, steps, keys, satisfied_count)
+
+    def _success_step(self, obj: ObjectMetadata) -> ProgressStep:
+        return ProgressStep(True, obj["objectId"], obj["objectType"], self.relation.failure_desc)
+
+    def _report_problems(
+        self,
+        objs: Sequence[ObjectMetadata],
+        det: str,
+        tail_type: str,
+        steps: list[ProgressStep],
+        keys: list[ProblemKey],
+    ) -> None:
+        """A failed step and a problem key per head object not related as it should be."""
+        for obj in objs:
+            steps.append(ProgressStep(False, obj["objectId"], obj["objectType"], self.relation.failure_desc))
+            keys.append(
+                ProblemKey(obj["objectId"], obj["objectType"], det, self.relation.property, tail_type)
+            )
+
+    def _status(
+        self, success: bool, steps: list[ProgressStep], keys: list[ProblemKey], satisfied_count: int
+    ) -> SubgoalStatus:
+        return SubgoalStatus(
+            "",
+            success,
+            tuple(steps),
+            tuple(keys),
+            self.total,
+            satisfied_count,
+            fallback_desc=self.relation.failure_desc,
+        )
 
 
 def _representative_id(outcome: _TaskOutcome) -> str | None:

@@ -13,13 +13,18 @@ import sys
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from models.planner import DEFAULT_CHECKPOINT_DIR
 from models.planner.config import RECIPES, GenerationConfig
 from symbolic.cli_args import Parser, existing_dir, existing_path, int_at_least, plain, positive_float
 from symbolic.data_dir import REPO_ROOT, default_data_dir
-from symbolic.ontology import load_ontology
+from symbolic.ontology import Ontology, load_ontology
 from symbolic.subgoals import format_subgoals, parse_subgoals
+
+if TYPE_CHECKING:
+    from models.planner.data import PlannerExample
+    from models.planner.predict import SubgoalGenerator
 
 HANDWRITTEN = REPO_ROOT / "tests" / "data" / "handwritten_dialogues.jsonl"
 
@@ -48,35 +53,28 @@ def _build_data(args: argparse.Namespace) -> int:
     return 0
 
 
+def _given(**options: Any) -> dict[str, Any]:
+    """The options the command line set (argparse leaves the others None): they override the recipe's."""
+    return {name: value for name, value in options.items() if value is not None}
+
+
 def _train(args: argparse.Namespace) -> int:
     from models.planner.data import DatasetFiles
     from models.planner.train import train
 
     recipe = RECIPES.get(args.recipe)
-    overrides = {
-        name: value
-        for name, value in (
-            ("max_steps", args.steps),
-            ("batch_size", args.batch_size),
-            ("learning_rate", args.learning_rate),
-            ("warmup_steps", args.warmup_steps),
-            ("save_every", args.save_every),
-            ("eval_every", args.eval_every),
-            ("num_threads", args.threads),
-            ("seed", args.seed),
-            ("max_source_tokens", args.max_source_tokens),
-        )
-        if value is not None
-    }
-    architecture = {
-        name: value
-        for name, value in (
-            ("d_model", args.d_model),
-            ("layers", args.layers),
-            ("vocab_size", args.vocab_size),
-        )
-        if value is not None
-    }
+    overrides = _given(
+        max_steps=args.steps,
+        batch_size=args.batch_size,
+        learning_rate=args.learning_rate,
+        warmup_steps=args.warmup_steps,
+        save_every=args.save_every,
+        eval_every=args.eval_every,
+        num_threads=args.threads,
+        seed=args.seed,
+        max_source_tokens=args.max_source_tokens,
+    )
+    architecture = _given(d_model=args.d_model, layers=args.layers, vocab_size=args.vocab_size)
     if "d_model" in architecture:
         architecture["ffn_dim"] = 4 * architecture["d_model"]  # BART's ratio
     recipe = replace(
@@ -99,10 +97,30 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _evaluation_sets(data: Path, names: Sequence[str]) -> dict[str, list[PlannerExample]]:
+    """The named evaluation sets of a build-data folder (no names: all); an unknown name stops the command."""
+    from models.planner.data import DatasetFiles, read_examples
+
+    available = DatasetFiles(data).evaluation_sets()
+    chosen = names or sorted(available)
+    unknown = [name for name in chosen if name not in available]
+    if unknown:
+        raise SystemExit(f"unknown evaluation set(s) {unknown}; {data} has: {', '.join(available)}")
+    return {name: read_examples(available[name]) for name in chosen}
+
+
+def _generator(args: argparse.Namespace, ontology: Ontology) -> SubgoalGenerator:
+    """The checkpoint's generator, decoding with the options ``_decoding_options`` gives a command."""
+    from models.planner.predict import SubgoalGenerator
+
+    config = GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias, engine=args.engine)
+    return SubgoalGenerator.from_directory(args.checkpoint, ontology, config)
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     import torch
 
-    from models.planner.data import DatasetFiles, handwritten_examples, read_examples
+    from models.planner.data import handwritten_examples
     from models.planner.evaluate import (
         format_miss_table,
         format_report_table,
@@ -111,23 +129,16 @@ def _evaluate(args: argparse.Namespace) -> int:
         write_predictions,
     )
     from models.planner.modeling import read_planner_meta
-    from models.planner.predict import SubgoalGenerator
 
     if args.handwritten is not None and not args.handwritten.is_file():
         raise SystemExit(f"--handwritten {args.handwritten}: no such file")
     handwritten = args.handwritten or (HANDWRITTEN if HANDWRITTEN.is_file() else None)
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
-    config = GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias, engine=args.engine)
-    generator = SubgoalGenerator.from_directory(args.checkpoint, ontology, config)
+    generator = _generator(args, ontology)
     sets = {}
     if args.data is not None:
-        available = DatasetFiles(args.data).evaluation_sets()
-        chosen = args.sets or sorted(available)
-        unknown = [name for name in chosen if name not in available]
-        if unknown:
-            raise SystemExit(f"unknown evaluation set(s) {unknown}; {args.data} has: {', '.join(available)}")
-        sets = {name: read_examples(available[name]) for name in chosen}
+        sets = _evaluation_sets(args.data, args.sets or ())
     if handwritten is not None:
         sets["handwritten"] = handwritten_examples(handwritten, ontology)
     if not sets:
@@ -165,16 +176,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     import torch
 
     from models.planner.calibrate import best_bias, record_bias, score_biases
-    from models.planner.data import DatasetFiles, read_examples
     from models.planner.modeling import load_planner_model
 
     torch.set_num_threads(args.threads)
     ontology = load_ontology()
-    available = DatasetFiles(args.data).evaluation_sets()
-    unknown = [name for name in args.sets if name not in available]
-    if unknown:
-        raise SystemExit(f"unknown evaluation set(s) {unknown}; {args.data} has: {', '.join(available)}")
-    sets = {name: read_examples(available[name]) for name in args.sets}
+    sets = _evaluation_sets(args.data, args.sets)
     planner = load_planner_model(args.checkpoint)
     scores = score_biases(planner, ontology, sets, args.biases, args.beams, args.batch_size)
     print("| Navigate bias | " + " | ".join(sets) + " | pooled |")
@@ -229,7 +235,6 @@ def _turn(text: str) -> tuple[str, str]:
 
 
 def _predict(args: argparse.Namespace) -> int:
-    from models.planner.predict import SubgoalGenerator
     from models.planner.text import format_planner_input
 
     ontology = load_ontology()
@@ -238,9 +243,7 @@ def _predict(args: argparse.Namespace) -> int:
         raise SystemExit("give at least one --turn 'Commander: ...' or an --instruction")
     history = parse_subgoals(args.history, ontology) if args.history else []
     source = format_planner_input(turns, history, args.instruction)
-    config = GenerationConfig(num_beams=args.beams, navigate_bias=args.navigate_bias, engine=args.engine)
-    generator = SubgoalGenerator.from_directory(args.checkpoint, ontology, config)
-    prediction = generator.predict(source)
+    prediction = _generator(args, ontology).predict(source)
     print(f"input:     {source}")
     print(f"generated: {prediction.text}")
     print(f"plan:      {format_subgoals(prediction.subgoals)}")

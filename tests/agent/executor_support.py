@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import base64
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from fastapi.testclient import TestClient
@@ -13,7 +13,7 @@ from fastapi.testclient import TestClient
 from agent.geometry import Camera, Pose
 from agent.perception import Observation
 from agent.planning import make_planner
-from agent.session import AgentSession, StepDecision
+from agent.session import AgentSession, SessionSpec, StepDecision
 from harness.drive.client import FrameEncoding, observation_parts, pose_of
 from harness.render.camera import CameraSpec
 from harness.render.renderer import Frame
@@ -25,6 +25,7 @@ from symbolic.ontology import load_ontology
 from symbolic.thor import OBJECT_ACTIONS
 
 CAMERA = {"width": 300, "height": 300, "hfov_deg": 90.0}
+SPEC_FIELDS = frozenset(spec_field.name for spec_field in fields(SessionSpec))
 """300x300 frames keep an episode to seconds; TEACh's own are 900x900."""
 KITCHEN_ITEMS = (("Apple", 1), ("Bread", 1), ("Knife", 1))
 ENCLOSING = frozenset({"Cabinet", "Drawer", "Fridge", "Microwave", "Safe", "Box"})
@@ -80,12 +81,13 @@ def oracle_session(subgoals: str, **options: Any) -> AgentSession:
     """A TfD session (unless ``options`` say otherwise) with oracle perception, the FMM navigator and the
     oracle planner on ``subgoals``, seeing ``CAMERA``'s frames."""
     ontology = load_ontology()
-    settings: dict[str, Any] = {"mode": "tfd", "perception": "oracle", "navigator": "fmm", **options}
     camera = Camera(CAMERA["width"], CAMERA["height"], CAMERA["hfov_deg"])
-    planner = make_planner("oracle", ontology)
-    return AgentSession.start(
-        "s", camera=camera, planner=planner, given_subgoals=subgoals, ontology=ontology, **settings
+    chosen = {name: options.pop(name) for name in SPEC_FIELDS & options.keys()}
+    spec = SessionSpec(
+        **{"mode": "tfd", "camera": camera, "perception": "oracle", "navigator": "fmm", **chosen}
     )
+    planner = make_planner("oracle", ontology)
+    return AgentSession.start("s", spec, planner, given_subgoals=subgoals, ontology=ontology, **options)
 
 
 def step_through(session: AgentSession, sim: Simulator, steps: int) -> list[StepDecision]:

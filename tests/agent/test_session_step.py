@@ -13,7 +13,7 @@ from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
 from agent.perception import HandRegion, ObservationError
 from agent.planning import make_planner
-from agent.session import AgentSession, Mode, SessionLimits
+from agent.session import AgentSession, Mode, SessionLimits, SessionSpec
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import Subgoal, SubgoalAction
 
@@ -66,7 +66,7 @@ def test_a_goal_transformer_session_explores_with_the_model_and_resumes_from_a_s
     execute(sim, decision.action, decision.x, decision.y)
     restored = AgentSession.from_bytes(session.to_bytes())
     upcoming = observation(sim.observe(noise_seed=77), sim.world.agent)
-    assert restored.explorer == "goal_transformer"
+    assert restored.spec.explorer == "goal_transformer"
     assert restored.step_once(upcoming) == session.step_once(upcoming)
 
 
@@ -77,11 +77,8 @@ def _model_planned_session(first_turn: str) -> AgentSession:
     ontology = load_ontology()
     return AgentSession.start(
         "s",
-        mode="tfd",
-        camera=CAMERA,
-        perception="oracle",
-        navigator="fmm",
-        planner=make_planner("model", ontology),
+        SessionSpec("tfd", CAMERA, "oracle", "fmm"),
+        make_planner("model", ontology),
         dialogue=[DialogueTurn("Commander", first_turn)],
         ontology=ontology,
     )
@@ -102,7 +99,7 @@ def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs
         e for line in session.trace.lines() for e in json.loads(line)["events"] if e.startswith("re-pl")
     ]
     assert events and events[0].startswith("re-planned because the plan ran out"), events
-    assert 1 <= session.progress_replans <= session.limits.max_progress_replans
+    assert 1 <= session.progress_replans <= session.spec.limits.max_progress_replans
     done = session.executor.completed
     assert Subgoal(A.PICKUP, "Apple") in done
     assert session._planning_context(session.dialogue).history_subgoals == tuple(done)

@@ -21,10 +21,17 @@ from fastapi.testclient import TestClient
 
 from agent.geometry import Camera
 from agent.planning import PlannerConfig, make_planner
-from agent.session import AgentSession
+from agent.session import AgentSession, SessionSpec
 from app.keys import hash_key
 from app.redis_store import LeaseLost, RedisSessionStore
-from app.store import InMemorySessionStore, SessionBusy, SessionNotFound, SessionStore, StoreFull
+from app.store import (
+    InMemorySessionStore,
+    SessionBusy,
+    SessionNotFound,
+    SessionStore,
+    StoredSession,
+    StoreFull,
+)
 from symbolic.ontology import load_ontology
 
 ONTOLOGY = load_ontology()
@@ -34,11 +41,8 @@ def _session(session_id: str) -> AgentSession:
     planner = make_planner("oracle", ONTOLOGY, PlannerConfig())
     return AgentSession.start(
         session_id,
-        mode="tfd",
-        camera=Camera(width=32, height=24, hfov_deg=90.0),
-        perception="oracle",
-        navigator="fmm",
-        planner=planner,
+        SessionSpec("tfd", Camera(width=32, height=24, hfov_deg=90.0), "oracle", "fmm"),
+        planner,
         given_subgoals="Open Fridge",
         ontology=ONTOLOGY,
         now=datetime(2024, 5, 1, tzinfo=UTC),
@@ -74,23 +78,23 @@ def make_store(request: pytest.FixtureRequest) -> Iterator[MakeStore]:
 
 def test_create_beyond_capacity_raises_store_full_with_a_wait(make_store: MakeStore) -> None:
     store = make_store(max_sessions=2)
-    store.create(_session("a"), None)
-    store.create(_session("b"), None)
+    store.create(StoredSession(_session("a"), None))
+    store.create(StoredSession(_session("b"), None))
 
     with pytest.raises(StoreFull) as full:
-        store.create(_session("c"), None)
+        store.create(StoredSession(_session("c"), None))
     assert store.ids(None) == ["a", "b"]
     assert not full.value.per_owner and 1.0 <= full.value.retry_after_s <= 60.0
 
 
 def test_an_owner_at_its_cap_is_refused_while_others_still_create(make_store: MakeStore) -> None:
     store = make_store(max_sessions=10)
-    store.create(_session("a1"), "alice", owner_cap=2)
-    store.create(_session("a2"), "alice", owner_cap=2)
+    store.create(StoredSession(_session("a1"), "alice"), owner_cap=2)
+    store.create(StoredSession(_session("a2"), "alice"), owner_cap=2)
 
     with pytest.raises(StoreFull) as full:
-        store.create(_session("a3"), "alice", owner_cap=2)
-    store.create(_session("b1"), "bob", owner_cap=2)
+        store.create(StoredSession(_session("a3"), "alice"), owner_cap=2)
+    store.create(StoredSession(_session("b1"), "bob"), owner_cap=2)
 
     assert full.value.per_owner and full.value.capacity == 2
     assert store.ids("alice") == ["a1", "a2"] and store.ids("bob") == ["b1"]
@@ -99,7 +103,7 @@ def test_an_owner_at_its_cap_is_refused_while_others_still_create(make_store: Ma
 
 def test_another_owner_finds_no_session(make_store: MakeStore) -> None:
     store = make_store()
-    store.create(_session("a"), "alice")
+    store.create(StoredSession(_session("a"), "alice"))
 
     with pytest.raises(SessionNotFound), store.hold("a", "bob", 1.0, write=False):
         pass
@@ -126,7 +130,7 @@ def test_names_belong_to_their_owner_and_replace_in_order(make_store: MakeStore)
 
 def test_a_held_session_is_busy_for_others(make_store: MakeStore) -> None:
     store = make_store()
-    store.create(_session("a"), None)
+    store.create(StoredSession(_session("a"), None))
 
     with store.hold("a", None, 1.0, write=False), pytest.raises(SessionBusy):  # noqa: SIM117
         with store.hold("a", None, 0.05, write=False):
@@ -137,7 +141,7 @@ def test_a_held_session_is_busy_for_others(make_store: MakeStore) -> None:
 
 def test_two_threads_holding_one_session_never_interleave(make_store: MakeStore) -> None:
     store = make_store()
-    store.create(_session("a"), None)
+    store.create(StoredSession(_session("a"), None))
     events: list[str] = []
 
     def work(name: str) -> None:
@@ -160,7 +164,7 @@ def test_two_threads_holding_one_session_never_interleave(make_store: MakeStore)
 
 def test_finished_says_done_or_gone(make_store: MakeStore) -> None:
     store = make_store()
-    store.create(_session("a"), None)
+    store.create(StoredSession(_session("a"), None))
     assert not store.finished("a") and store.finished("never")
     with store.hold("a", None, 1.0, write=True) as held:
         held.session.done = True
@@ -170,8 +174,8 @@ def test_finished_says_done_or_gone(make_store: MakeStore) -> None:
 def test_in_memory_idle_sessions_expire_and_used_ones_survive() -> None:
     clock = FakeClock()
     store = InMemorySessionStore(max_sessions=2, ttl_s=60.0, clock=clock)
-    store.create(_session("idle"), None)
-    store.create(_session("busy"), None)
+    store.create(StoredSession(_session("idle"), None))
+    store.create(StoredSession(_session("busy"), None))
 
     clock.advance(50.0)
     with store.hold("busy", None, 1.0, write=False):
@@ -181,7 +185,7 @@ def test_in_memory_idle_sessions_expire_and_used_ones_survive() -> None:
     assert store.ids(None) == ["busy"]
     with pytest.raises(SessionNotFound), store.hold("idle", None, 1.0, write=False):
         pass
-    store.create(_session("new"), None)  # the evicted session's slot is free again
+    store.create(StoredSession(_session("new"), None))  # the evicted session's slot is free again
     assert len(store) == 2
 
 
@@ -206,7 +210,7 @@ def test_redis_a_write_through_one_worker_is_what_the_other_reads(
     two_workers: tuple[RedisSessionStore, RedisSessionStore],
 ) -> None:
     first, second = two_workers
-    first.create(_session("a"), None, {"note": 1})
+    first.create(StoredSession(_session("a"), None, {"note": 1}))
     with second.hold("a", None, 1.0, write=True) as held:  # the second worker loads it, and changes it
         held.session.step = 7
         held.meta["note"] = 2
@@ -218,7 +222,7 @@ def test_redis_a_block_that_raises_stores_nothing(
     two_workers: tuple[RedisSessionStore, RedisSessionStore],
 ) -> None:
     first, second = two_workers
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
     with pytest.raises(RuntimeError), first.hold("a", None, 1.0, write=True) as held:
         held.session.step = 99
         raise RuntimeError("the step failed half way")
@@ -231,12 +235,12 @@ def test_redis_idle_sessions_expire_on_redis_clock(redis_url: str, redis_prefix:
     store = RedisSessionStore(
         redis_url, max_sessions=2, ttl_s=0.5, lease_s=1.0, ontology=ONTOLOGY, prefix=redis_prefix
     )
-    store.create(_session("a"), None)
-    store.create(_session("b"), None)
+    store.create(StoredSession(_session("a"), None))
+    store.create(StoredSession(_session("b"), None))
     time.sleep(0.7)
 
     assert store.ids(None) == [] and len(store) == 0
-    store.create(_session("c"), None)  # the expired sessions' slots are free again
+    store.create(StoredSession(_session("c"), None))  # the expired sessions' slots are free again
     with pytest.raises(SessionNotFound), store.hold("a", None, 1.0, write=False):
         pass
     store.close()
@@ -247,7 +251,7 @@ def test_redis_a_dead_workers_lease_lapses(
 ) -> None:
     """A worker killed while holding a session leaves its lease; after ``lease_s`` another worker goes on."""
     first, second = two_workers
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
     redis.Redis.from_url(redis_url).set(f"{redis_prefix}:lease:a", "dead-worker", px=1000)
 
     with pytest.raises(SessionBusy), second.hold("a", None, 0.2, write=False):
@@ -262,7 +266,7 @@ def test_redis_a_working_worker_keeps_its_lease_past_lease_s(
     two_workers: tuple[RedisSessionStore, RedisSessionStore],
 ) -> None:
     first, second = two_workers
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
     with first.hold("a", None, 1.0, write=True) as slow:
         slow.session.step = 5
         time.sleep(1.5)  # past its 1 s lease: renewed while it works
@@ -278,7 +282,7 @@ def test_redis_a_request_whose_lease_was_taken_over_stores_nothing(
     """A worker that stalled past its lease (no renewal reached Redis) and lost the session to another
     must not overwrite what the other stored."""
     first, second = two_workers
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
     with pytest.raises(LeaseLost), first.hold("a", None, 1.0, write=True) as stalled:
         stalled.session.step = 5
         redis.Redis.from_url(redis_url).set(f"{redis_prefix}:lease:a", "another-worker", px=1000)
@@ -345,7 +349,7 @@ def test_redis_a_hold_that_changed_nothing_writes_no_new_snapshot(
 ) -> None:
     """A retried step is answered again without storing the same state again."""
     first, second = two_workers
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
     version = redis.Redis.from_url(redis_url).hget(f"{redis_prefix}:s:a", "ver")
     with first.hold("a", None, 1.0, write=True) as held:
         held.changed = False
@@ -377,10 +381,10 @@ def test_redis_a_loaded_session_plans_and_perceives_with_the_loading_services_co
         planners=lambda name: make_planner(name, ONTOLOGY, PlannerConfig(max_subgoals=7)),
         networks=configured,
     )
-    first.create(_session("a"), None)
+    first.create(StoredSession(_session("a"), None))
 
     with second.hold("a", None, 1.0, write=False) as held:
         assert held.session.planner.config.max_subgoals == 7  # type: ignore[attr-defined]
-        assert held.session.networks == configured
+        assert held.session.spec.networks == configured
     first.close()
     second.close()

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable
+from functools import partial
+from typing import Any
 
 import numpy as np
 import pytest
@@ -453,6 +455,30 @@ def test_fridge_chills_what_is_shut_inside() -> None:
 # ---- every failure reason, one scenario each ------------------------------------------------------------
 
 
+SIZES = {
+    "Apple": (0.08, 0.08, 0.08),
+    "Tomato": (0.08, 0.08, 0.08),
+    "Bread": (0.3, 0.12, 0.12),
+    "Mug": (0.1, 0.1, 0.1),
+    "Knife": (0.3, 0.02, 0.04),
+    "Toaster": (0.25, 0.2, 0.2),
+    "Microwave": (0.5, 0.3, 0.4),
+    "HousePlant": (0.25, 0.4, 0.25),
+}
+"""The sizes of the things the one-click failure scenarios put on the counter or in the hand."""
+
+
+def _click_on(
+    action: str, object_type: str, held: str | None = None, dx: float = 0.0, **states: Any
+) -> ActionResult:
+    """Most failures need no more than one object on the counter, perhaps another in hand, and one click."""
+    kitchen = Kitchen()
+    target = kitchen.put(object_type, dx, SIZES[object_type], **states)
+    if held:
+        kitchen.hold(held, SIZES[held])
+    return act(kitchen.simulator(), action, target)
+
+
 def _blocked() -> ActionResult:
     sim = Kitchen().simulator()
     assert sim.step("Forward").success  # one step to the counter's edge, then blocked
@@ -503,47 +529,9 @@ def _inside_closed() -> ActionResult:
     return act(kitchen.simulator(), "Pickup", apple)
 
 
-def _hand_occupied() -> ActionResult:
-    kitchen = Kitchen()
-    apple = kitchen.put("Apple", -0.3, (0.08, 0.08, 0.08))
-    kitchen.hold("Tomato", (0.08, 0.08, 0.08))
-    return act(kitchen.simulator(), "Pickup", apple)
-
-
-def _knife_not_in_hand() -> ActionResult:
-    kitchen = Kitchen()
-    bread = kitchen.put("Bread", 0.0, (0.3, 0.12, 0.12))
-    return act(kitchen.simulator(), "Slice", bread)
-
-
 def _not_openable() -> ActionResult:
     kitchen = Kitchen()
     return act(kitchen.simulator(), "Open", kitchen.counter)
-
-
-def _cannot_open_when_running() -> ActionResult:
-    kitchen = Kitchen()
-    microwave = kitchen.put("Microwave", 0.0, (0.5, 0.3, 0.4), facing=180, is_toggled=True)
-    return act(kitchen.simulator(), "Open", microwave)
-
-
-def _must_be_closed_to_turn_on() -> ActionResult:
-    kitchen = Kitchen()
-    microwave = kitchen.put("Microwave", 0.0, (0.5, 0.3, 0.4), facing=180, is_open=True)
-    return act(kitchen.simulator(), "ToggleOn", microwave)
-
-
-def _not_toggleable() -> ActionResult:
-    kitchen = Kitchen()
-    apple = kitchen.put("Apple", 0.0, (0.08, 0.08, 0.08))
-    return act(kitchen.simulator(), "ToggleOn", apple)
-
-
-def _not_sliceable() -> ActionResult:
-    kitchen = Kitchen()
-    mug = kitchen.put("Mug", 0.0, (0.1, 0.1, 0.1))
-    kitchen.hold("Knife", (0.3, 0.02, 0.04))
-    return act(kitchen.simulator(), "Slice", mug)
 
 
 def _already_in_state() -> ActionResult:
@@ -560,13 +548,6 @@ def _receptacle_full() -> ActionResult:
     return act(kitchen.simulator(), "Place", toaster)
 
 
-def _receptacle_incompatible() -> ActionResult:
-    kitchen = Kitchen()
-    toaster = kitchen.put("Toaster", 0.0, (0.25, 0.2, 0.2))
-    kitchen.hold("Apple", (0.08, 0.08, 0.08))
-    return act(kitchen.simulator(), "Place", toaster)
-
-
 def _receptacle_closed() -> ActionResult:
     kitchen = Kitchen()
     fridge = kitchen.add(box("Fridge", (2.9, 0.9, 2.0), (0.8, 1.8, 0.6), facing=180))
@@ -577,13 +558,6 @@ def _receptacle_closed() -> ActionResult:
 def _nothing_held() -> ActionResult:
     kitchen = Kitchen()
     return act(kitchen.simulator(), "Place", kitchen.counter)
-
-
-def _pour_not_possible() -> ActionResult:
-    kitchen = Kitchen()
-    plant = kitchen.put("HousePlant", 0.0, (0.25, 0.4, 0.25))
-    kitchen.hold("Mug", (0.1, 0.1, 0.1))  # empty
-    return act(kitchen.simulator(), "Pour", plant)
 
 
 def _look_limit() -> ActionResult:
@@ -602,19 +576,23 @@ FAILURE_SCENARIOS: dict[FailureReason, Callable[[], ActionResult]] = {
     FailureReason.NOTHING_AT_POINT: _nothing_at_point,
     FailureReason.NOT_PICKUPABLE: _not_pickupable,
     FailureReason.INSIDE_CLOSED: _inside_closed,
-    FailureReason.HAND_OCCUPIED: _hand_occupied,
-    FailureReason.KNIFE_NOT_IN_HAND: _knife_not_in_hand,
+    FailureReason.HAND_OCCUPIED: partial(_click_on, "Pickup", "Apple", held="Tomato", dx=-0.3),
+    FailureReason.KNIFE_NOT_IN_HAND: partial(_click_on, "Slice", "Bread"),
     FailureReason.NOT_OPENABLE: _not_openable,
-    FailureReason.CANNOT_OPEN_WHEN_RUNNING: _cannot_open_when_running,
-    FailureReason.MUST_BE_CLOSED_TO_TURN_ON: _must_be_closed_to_turn_on,
-    FailureReason.NOT_TOGGLEABLE: _not_toggleable,
-    FailureReason.NOT_SLICEABLE: _not_sliceable,
+    FailureReason.CANNOT_OPEN_WHEN_RUNNING: partial(
+        _click_on, "Open", "Microwave", facing=180, is_toggled=True
+    ),
+    FailureReason.MUST_BE_CLOSED_TO_TURN_ON: partial(
+        _click_on, "ToggleOn", "Microwave", facing=180, is_open=True
+    ),
+    FailureReason.NOT_TOGGLEABLE: partial(_click_on, "ToggleOn", "Apple"),
+    FailureReason.NOT_SLICEABLE: partial(_click_on, "Slice", "Mug", held="Knife"),
     FailureReason.ALREADY_IN_STATE: _already_in_state,
     FailureReason.RECEPTACLE_FULL: _receptacle_full,
-    FailureReason.RECEPTACLE_INCOMPATIBLE: _receptacle_incompatible,
+    FailureReason.RECEPTACLE_INCOMPATIBLE: partial(_click_on, "Place", "Toaster", held="Apple"),
     FailureReason.RECEPTACLE_CLOSED: _receptacle_closed,
     FailureReason.NOTHING_HELD: _nothing_held,
-    FailureReason.POUR_NOT_POSSIBLE: _pour_not_possible,
+    FailureReason.POUR_NOT_POSSIBLE: partial(_click_on, "Pour", "HousePlant", held="Mug"),  # an empty mug
     FailureReason.LOOK_LIMIT: _look_limit,
     FailureReason.INVALID_ACTION: _invalid_action,
 }

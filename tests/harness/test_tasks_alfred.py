@@ -48,6 +48,12 @@ class House:
         return World("alfred", room, self.objects, AgentState(x=0.625, z=1.625, held=held))
 
 
+def house_with_counter_and(receptacle: str) -> tuple[House, str, str]:
+    """A house with a counter to take things from and the receptacle the task wants them in."""
+    house = House()
+    return house, house.add("CounterTop"), house.add(receptacle)
+
+
 def counts(task: AlfredTask, world: World) -> tuple[int, int, bool]:
     report = check_alfred(task, world)
     return report.satisfied, report.total, report.success
@@ -68,8 +74,7 @@ def test_pick_and_place_simple() -> None:
 
 
 def test_pick_and_place_counts_the_slice_first() -> None:
-    house = House()
-    counter, fridge = house.add("CounterTop"), house.add("Fridge")
+    house, counter, fridge = house_with_counter_and("Fridge")
     apple = house.add("Apple", on=counter)
     world = house.world()
     task = AlfredTask("pick_and_place_simple", "Apple", parent_target="Fridge", object_sliced=True)
@@ -106,8 +111,7 @@ def test_pick_two_obj_and_place_needs_both_in_one_receptacle() -> None:
 
 
 def test_pick_two_sliced_counts_up_to_two_slices() -> None:
-    house = House()
-    counter, plate = house.add("CounterTop"), house.add("Plate")
+    house, counter, plate = house_with_counter_and("Plate")
     tomato = house.add("Tomato", on=counter)
     slices = [house.add_slice(tomato, i, on=counter) for i in (1, 2, 3)]
     world = house.world()
@@ -160,8 +164,7 @@ def test_a_lamp_on_the_floor_beside_the_agent_counts_as_nearby() -> None:
     ],
 )
 def test_state_then_place(task_type: str, state: str, word: str) -> None:
-    house = House()
-    counter, table = house.add("CounterTop"), house.add("DiningTable")
+    house, counter, table = house_with_counter_and("DiningTable")
     first = house.add("Potato", on=counter)
     second = house.add("Potato", on=counter)
     world = house.world()
@@ -177,8 +180,7 @@ def test_state_then_place(task_type: str, state: str, word: str) -> None:
 
 
 def test_pick_and_place_with_movable_recep() -> None:
-    house = House()
-    counter, cabinet = house.add("CounterTop"), house.add("Cabinet")
+    house, counter, cabinet = house_with_counter_and("Cabinet")
     pan = house.add("Pan", on=counter)
     apple = house.add("Apple", on=counter)
     piece = house.add_slice(apple, 1, on=counter)

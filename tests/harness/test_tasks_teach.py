@@ -57,6 +57,15 @@ def counts(task: TaskInstance, world: World) -> tuple[int, int, bool]:
     return report.satisfied, report.total, report.success
 
 
+def serving_counter(kitchen: Kitchen, *foods: str, dirty_plate: bool = False) -> tuple[list[str], str]:
+    """Every serving task starts alike: whole foods, a plate and a knife on a counter."""
+    counter = kitchen.add("CounterTop")
+    wholes = [kitchen.add(food, on=counter) for food in foods]
+    plate = kitchen.add("Plate", on=counter, is_dirty=dirty_plate)
+    kitchen.add("Knife", on=counter)
+    return wholes, plate
+
+
 @pytest.fixture
 def kitchen() -> Kitchen:
     k = Kitchen()
@@ -151,10 +160,7 @@ def test_boil_potato(kitchen: Kitchen) -> None:
 
 
 def test_plate_of_toast(kitchen: Kitchen) -> None:
-    counter = kitchen.add("CounterTop")
-    bread = kitchen.add("Bread", on=counter)
-    plate = kitchen.add("Plate", on=counter, is_dirty=True)
-    kitchen.add("Knife", on=counter)
+    [bread], plate = serving_counter(kitchen, "Bread", dirty_plate=True)
     world = kitchen.world()
     task = make_task_instance("Plate Of Toast")
     # toast 0 of 2, clean plate 1 of 2 + sink 2 of 2, toast on the plate 0 of 1.
@@ -170,10 +176,7 @@ def test_plate_of_toast(kitchen: Kitchen) -> None:
 
 
 def test_n_slices_of_tomato_on_a_plate(kitchen: Kitchen) -> None:
-    counter = kitchen.add("CounterTop")
-    tomato = kitchen.add("Tomato", on=counter)
-    plate = kitchen.add("Plate", on=counter, is_dirty=True)
-    kitchen.add("Knife", on=counter)
+    [tomato], plate = serving_counter(kitchen, "Tomato", dirty_plate=True)
     world = kitchen.world()
     task = make_task_instance("N Slices Of X In Y", ["2", "Tomato", "on", "Plate"])
     assert task.describe() == "Serve 2 slice(s) of Tomato on a Plate."
@@ -195,10 +198,7 @@ def test_n_slices_of_tomato_on_a_plate(kitchen: Kitchen) -> None:
 
 
 def test_n_cooked_slices_of_potato(kitchen: Kitchen) -> None:
-    counter = kitchen.add("CounterTop")
-    potato = kitchen.add("Potato", on=counter)
-    plate = kitchen.add("Plate", on=counter)
-    kitchen.add("Knife", on=counter)
+    [potato], plate = serving_counter(kitchen, "Potato")
     world = kitchen.world()
     task = make_task_instance("N Cooked Slices Of X In Y", ["1", "Potato", "on", "Plate"])
     assert task.describe() == "Cook 1 slice(s) of Potato and serve on a Plate."
@@ -229,12 +229,7 @@ def test_whole_objects_stand_for_one_missing_slice_only(kitchen: Kitchen) -> Non
 
 
 def test_sandwich(kitchen: Kitchen) -> None:
-    counter = kitchen.add("CounterTop")
-    bread = kitchen.add("Bread", on=counter)
-    lettuce = kitchen.add("Lettuce", on=counter)
-    tomato = kitchen.add("Tomato", on=counter)
-    plate = kitchen.add("Plate", on=counter)
-    kitchen.add("Knife", on=counter)
+    (bread, lettuce, tomato), plate = serving_counter(kitchen, "Bread", "Lettuce", "Tomato")
     world = kitchen.world()
     task = make_task_instance("Sandwich", ["1", "1"])
     # 2 toasts 0 of 4; lettuce slice 0 + knife 1; tomato slice 0 + knife 1; clean plate 4; relation 0 of 4.
@@ -254,10 +249,7 @@ def test_sandwich(kitchen: Kitchen) -> None:
 
 
 def test_salad(kitchen: Kitchen) -> None:
-    counter = kitchen.add("CounterTop")
-    wholes = [kitchen.add(t, on=counter) for t in ("Lettuce", "Tomato", "Potato")]
-    plate = kitchen.add("Plate", on=counter, is_dirty=True)
-    kitchen.add("Knife", on=counter)
+    wholes, plate = serving_counter(kitchen, "Lettuce", "Tomato", "Potato", dirty_plate=True)
     world = kitchen.world()
     task = make_task_instance("Salad", ["1", "1", "1"])
     # lettuce 1 (knife), tomato 1 (knife), cooked potato 1 (knife) of 2+2+3; plate 3 of 4; relation 0 of 3.

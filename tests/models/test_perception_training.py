@@ -353,7 +353,7 @@ def test_a_service_can_run_learned_perception_on_networks_a_user_trained(tiny_mo
         with store.hold(created.json()["session_id"], None, 1.0, write=False) as held:
             session = held.session
     restored = AgentSession.from_bytes(session.to_bytes())
-    assert restored.networks == networks
+    assert restored.spec.networks == networks
     assert restored.perception_backend.models.depth.config.unet.widths == TINY  # type: ignore[attr-defined]
 
     missing = Settings(segmentation_checkpoint=tiny_models["depth"].parent / "nothing-here")

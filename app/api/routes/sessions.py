@@ -20,7 +20,7 @@ from app.limits import check_dialogue
 from app.ownership import owner_cap, too_many_sessions
 from app.schemas import SessionCreate, SessionList, SessionPublic, UtteranceCreate, UtteranceResult
 from app.session_builder import build_session, planning_errors_as_api_errors
-from app.store import SessionNotFound, StoreFull
+from app.store import SessionNotFound, StoredSession, StoreFull
 from app.store_errors import session_not_found
 from app.views import session_public
 
@@ -46,7 +46,7 @@ def create_session(
 ) -> SessionPublic:
     session = build_session(body, settings, ontology, session_id=uuid.uuid4().hex, now=datetime.now(UTC))
     try:
-        store.create(session, caller.owner, owner_cap=owner_cap(caller, settings))
+        store.create(StoredSession(session, caller.owner), owner_cap=owner_cap(caller, settings))
     except StoreFull as error:
         raise too_many_sessions(error, settings) from error
     response.headers["Location"] = f"/v1/sessions/{session.session_id}"
@@ -54,7 +54,7 @@ def create_session(
         "session_created",
         extra={
             "session_id": session.session_id,
-            "mode": session.mode,
+            "mode": session.spec.mode,
             "planner": session.planner.name,
             "plan_length": len(session.plan),
             "repairs": len(session.repair_log),

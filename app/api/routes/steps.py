@@ -172,7 +172,7 @@ async def step(
         repeats_last=lambda _, last: body.step is not None and body.step == last.step,
         check_order=check_order,
         observe=lambda session: observation_from_request(
-            body, session.camera, session.perception, ontology, parts
+            body, session.spec.camera, session.spec.perception, ontology, parts
         ),
     )
 
