@@ -140,29 +140,46 @@ class ModelPlanner:
             return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
         source = planner_source(context)
         started = time.perf_counter()
-        prediction = self.generator.predict(source)
+        top, *others = self.generator.predict_candidates(source)
         observer = PLANNER_CALL_OBSERVER.get()
         if observer is not None:
             observer(time.perf_counter() - started)
-        events = validation_events(prediction)
-        plan, cut = _truncated(list(prediction.subgoals), self.config.max_subgoals, "generated")
-        said, words = commander_words(context), object_words(self.ontology)
-        request = read_request(said, words)
-        corrections = read_corrections(said, words)
-        plan, corrected = follow_corrections(plan, corrections, request.mentions, self.ontology)
-        plan, asked = cover_request(plan, request, self.ontology, context.history_subgoals)
-        repaired = repair_plan(plan, self.ontology, context.current_belief(self.ontology))
-        final, cut_after = _truncated(repaired.plan, self.config.max_subgoals, "repaired")
-        log = (*events, *cut, *corrected, *asked, *repaired.log, *cut_after)
+        events = validation_events(top)
+        plan, cut = _truncated(list(top.subgoals), self.config.max_subgoals, "generated")
+        passes = _RequestPasses(context, self.ontology, self.config.max_subgoals)
+        final, log = passes.apply(plan)
         LOG.info(
             "model plan: %d generated, %d after repair, %d validation changes, %d repairs: %s",
-            len(prediction.subgoals),
+            len(top.subgoals),
             len(final),
             len(events),
-            len(repaired.log),
+            len(log),
             format_subgoals(final),
         )
-        return PlanOutcome(plan=tuple(final), repair_log=log, source="model")
+        return PlanOutcome(
+            plan=tuple(final),
+            repair_log=(*events, *cut, *log),
+            source="model",
+            readings=self._other_readings(top, others, final, passes),
+        )
+
+    def _other_readings(
+        self,
+        top: PlanPrediction,
+        others: list[PlanPrediction],
+        final: list[Subgoal],
+        passes: _RequestPasses,
+    ) -> tuple[tuple[Subgoal, ...], ...]:
+        """The beam's other plans that read the request with the same actions (``symbolic.readings``: they
+        differ in which object a word means), each through the same passes, distinct from the first."""
+        shape = [subgoal.action for subgoal in top.subgoals]
+        readings: dict[tuple[Subgoal, ...], None] = {tuple(final): None}
+        for other in others:
+            if [subgoal.action for subgoal in other.subgoals] != shape:
+                continue
+            plan, _ = _truncated(list(other.subgoals), self.config.max_subgoals, "generated")
+            readings.setdefault(tuple(passes.apply(plan)[0]))
+        return tuple(readings)[1:]
 
     def _follow(self, command: list[CommandItem], context: PlanningContext) -> PlanOutcome:
         plan, cut = _truncated([item.subgoal for item in command], self.config.max_subgoals, "instructed")
@@ -183,3 +200,23 @@ def latest_command(context: PlanningContext, ontology: Ontology) -> list[Command
             except SubgoalSyntaxError:
                 return None  # an instruction with a malformed hint: leave it to the language model
     return None
+
+
+class _RequestPasses:
+    """What turns a generated plan into the plan: the commander's corrections, the counts and conjunctions
+    the request asked for, symbolic repair from the current belief, the length limit."""
+
+    def __init__(self, context: PlanningContext, ontology: Ontology, max_subgoals: int) -> None:
+        said, words = commander_words(context), object_words(ontology)
+        self.request = read_request(said, words)
+        self.corrections = read_corrections(said, words)
+        self.ontology = ontology
+        self.context = context
+        self.max_subgoals = max_subgoals
+
+    def apply(self, plan: list[Subgoal]) -> tuple[list[Subgoal], list[RepairEvent]]:
+        plan, corrected = follow_corrections(plan, self.corrections, self.request.mentions, self.ontology)
+        plan, asked = cover_request(plan, self.request, self.ontology, self.context.history_subgoals)
+        repaired = repair_plan(plan, self.ontology, self.context.current_belief(self.ontology))
+        final, cut = _truncated(repaired.plan, self.max_subgoals, "repaired")
+        return final, [*corrected, *asked, *repaired.log, *cut]

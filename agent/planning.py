@@ -67,6 +67,9 @@ class PlanOutcome:
     hints: tuple[CommandItem, ...] = ()
     """A commander's instruction items that carry where to stand or click (``symbolic.commands``), in the
     order of their subgoals in the plan; the executor follows them (TATC)."""
+    readings: tuple[tuple[Subgoal, ...], ...] = ()
+    """The language model's other readings of the request, as plans after the same passes, next likeliest
+    first; a session turns to one when a subgoal of ``plan`` failed (``symbolic.readings``)."""
 
 
 @dataclass(frozen=True)

@@ -71,7 +71,8 @@ from agent.planning import (
 from agent.snapshot import Name, SnapshotError, dumps, encoded_size, loads
 from agent.trace import Trace, TraceEntry
 from symbolic.ontology import Ontology, load_ontology
-from symbolic.repair import RepairEvent
+from symbolic.readings import choose_reading
+from symbolic.repair import BEAM_READING, SUBGOAL_FAILED, RepairEvent
 from symbolic.subgoals import Subgoal, format_subgoals
 from symbolic.thor import (
     ALFRED_LOOK_STEP_DEG,
@@ -483,10 +484,26 @@ class AgentSession:
         self.plan = list(outcome.plan)
         self.plan_source = outcome.source
         self.repair_log.extend(outcome.repair_log)
+        if why == "a subgoal failed" and outcome.readings:
+            self._turn_to_another_reading(outcome, events)
         self.pointer = 0
         self.executor.new_plan()
         events.append(f"re-planned because {why}: {format_subgoals(self.plan)}")
         return True
+
+    def _turn_to_another_reading(self, outcome: PlanOutcome, events: list[str]) -> None:
+        """After a subgoal failed: the model's next reading when its first asks for that subgoal again
+        (``symbolic.readings``), judged by what the map has seen; logged under ``beam-reading``."""
+        failed = {subgoal for e in self.repair_log if e.rule == SUBGOAL_FAILED for subgoal in e.removed}
+        seen = self.semantic_map.last_seen.keys() if self.semantic_map is not None else set()
+        readings = (outcome.plan, *outcome.readings)
+        choice = choose_reading(readings, failed, seen)
+        if choice.index == 0:
+            return
+        chosen = readings[choice.index]
+        self.plan = list(chosen)
+        self.repair_log.append(RepairEvent(BEAM_READING, 0, choice.reason, outcome.plan, chosen))
+        events.append(f"{choice.reason}: {format_subgoals(chosen)}")
 
     def _ensure_map(self, pose: Pose) -> SemanticMap:
         if self.semantic_map is None:

@@ -353,8 +353,9 @@ KIN_STAND_IN = "kin-stand-in"
 MAKE_ROOM = "make-room"
 SUBGOAL_FAILED = "subgoal-failed"
 RETRY_GIVEN_UP = "retry-given-up"
+BEAM_READING = "beam-reading"
 
-AppliedBy = Literal["repair_plan", "oracle planner", "model planner", "executor"]
+AppliedBy = Literal["repair_plan", "oracle planner", "model planner", "executor", "session"]
 """Which part applies a rule: ``repair_plan`` runs the checks itself; the others log events under the
 rule's name when they change the plan (before repair, or while the agent acts)."""
 
@@ -407,6 +408,10 @@ REPAIR_RULES: Registry[Rule] = Registry(
         MAKE_ROOM: Rule("Take an obstruction out of a receptacle where Place keeps failing.", "executor"),
         SUBGOAL_FAILED: Rule("Give up a subgoal the agent could not do; repair the rest.", "executor"),
         RETRY_GIVEN_UP: Rule("Try the given-up subgoals once more when the plan runs out.", "executor"),
+        BEAM_READING: Rule(
+            "After a subgoal failed, follow the model's next reading that does not ask for it again.",
+            "session",
+        ),
     },
 )
 """Every rule name the repair log uses: ``repair_plan``'s checks in the order they are tried at each

@@ -47,8 +47,16 @@ def _top(scores: np.ndarray, k: int) -> np.ndarray:
     return np.argsort(-scores, kind="stable")[:k]
 
 
-def beam_search(step: Step, allowed: Allowed, bias: np.ndarray | None, settings: BeamSettings) -> list[int]:
-    """The best finished sequence: the start id, the generated ids, the end id (unless cut by the limit)."""
+Hypothesis = tuple[list[int], float]
+"""A finished sequence (the start id, the generated ids, the end id unless cut by the limit) and its score:
+the summed log-probability over the generated length, as transformers' ``sequences_scores``."""
+
+
+def beam_search(
+    step: Step, allowed: Allowed, bias: np.ndarray | None, settings: BeamSettings
+) -> list[Hypothesis]:
+    """The finished hypotheses, best first (at most ``num_beams``; what ``num_return_sequences`` returns):
+    the first is ``generate``'s answer, the others what the planner falls back on (``ModelPlanner``)."""
     K = settings.num_beams
     max_length = 1 + settings.max_new_tokens  # the start token is the decoder's prompt
     running = [[settings.start_id] for _ in range(K)]
@@ -100,4 +108,5 @@ def beam_search(step: Step, allowed: Allowed, bias: np.ndarray | None, settings:
         worst_finished = np.where(finished_flags, finished_scores.min(), NEG)
         improvable = improvable and bool((best_running > worst_finished).any())
         if not improvable or finished_flags.all() or ended.all():
-            return finished[0]
+            kept = [i for i in range(K) if finished_flags[i]] or [0]
+            return [(finished[i], float(finished_scores[i])) for i in kept]

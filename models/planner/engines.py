@@ -20,10 +20,24 @@ from models.planner.config import DecodeEngine
 from models.planner.modeling import PlannerModel
 
 
+@dataclass(frozen=True)
+class Candidate:
+    """One finished beam: the raw generated plan and its score (log-probability over generated length)."""
+
+    text: str
+    score: float
+
+
 class PlanDecoder(Protocol):
     """Formatted planner inputs -> raw generated plans (DESIGN.md §5's text form)."""
 
-    def generate_texts(self, sources: Sequence[str]) -> list[str]: ...
+    def generate_texts(self, sources: Sequence[str]) -> list[str]:
+        """The best plan of each input."""
+        ...
+
+    def generate_candidates(self, sources: Sequence[str]) -> list[list[Candidate]]:
+        """Each input's finished beams, best first (the first is ``generate_texts``' plan)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -45,6 +59,9 @@ class TorchPlanDecoder:
         self.settings = settings
 
     def generate_texts(self, sources: Sequence[str]) -> list[str]:
+        return [candidates[0].text for candidates in self.generate_candidates(sources)]
+
+    def generate_candidates(self, sources: Sequence[str]) -> list[list[Candidate]]:
         tokenizer = self.planner.tokenizer
         vocab = self.planner.plan_vocab
         grammar = None
@@ -67,14 +84,23 @@ class TorchPlanDecoder:
                 input_ids=encoded["input_ids"],
                 attention_mask=encoded["attention_mask"],
                 num_beams=self.settings.num_beams,
+                num_return_sequences=self.settings.num_beams,
                 max_new_tokens=self.settings.max_new_tokens,
                 early_stopping=True,
                 prefix_allowed_tokens_fn=grammar,
                 sequence_bias=bias or None,
+                return_dict_in_generate=True,
+                output_scores=True,
             )
+        rows = output.sequences
         if vocab is not None:
-            return [vocab.decode(row.tolist()) for row in output]
-        return [text.strip() for text in tokenizer.batch_decode(output, skip_special_tokens=True)]
+            texts = [vocab.decode(row.tolist()) for row in rows]
+        else:
+            texts = [text.strip() for text in tokenizer.batch_decode(rows, skip_special_tokens=True)]
+        beams = self.settings.num_beams
+        scores = output.sequences_scores.tolist() if beams > 1 else [0.0] * len(texts)
+        found = [Candidate(text, score) for text, score in zip(texts, scores, strict=True)]
+        return [found[i : i + beams] for i in range(0, len(found), beams)]
 
 
 def onnx_applies(planner: PlannerModel) -> bool:

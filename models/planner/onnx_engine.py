@@ -19,7 +19,8 @@ import torch
 from transformers import EncoderDecoderModel, PreTrainedTokenizerBase
 
 from models.onnx_runtime import export_graph, inference_session
-from models.planner.beam_search import BeamSettings, beam_search
+from models.planner.beam_search import BeamSettings, Hypothesis, beam_search
+from models.planner.engines import Candidate
 from models.planner.onnx_graphs import DecoderStepGraph, EncoderGraph, decoder_shape
 from models.planner.plan_vocab import PlanVocabulary
 
@@ -86,15 +87,21 @@ class OnnxPlanDecoder:
 
     def generate_texts(self, sources: Sequence[str]) -> list[str]:
         """The decoded plan of each source (inputs longer than the model allows keep their end)."""
+        return [candidates[0].text for candidates in self.generate_candidates(sources)]
+
+    def generate_candidates(self, sources: Sequence[str]) -> list[list[Candidate]]:
+        """Each source's finished beams as decoded plans, best first."""
         self.tokenizer.truncation_side = "left"  # long dialogues keep their latest turns and the history
-        texts = []
+        found = []
         for source in sources:
             ids = self.tokenizer(source, truncation=True, max_length=self.max_source_tokens)["input_ids"]
-            texts.append(self.vocab.decode(self.generate(np.array([ids], dtype=np.int64))))
-        return texts
+            hypotheses = self.generate(np.array([ids], dtype=np.int64))
+            found.append([Candidate(self.vocab.decode(words), score) for words, score in hypotheses])
+        return found
 
-    def generate(self, input_ids: np.ndarray) -> list[int]:
-        """Plan-word ids (start first) for one input's token ids int64 [1, S]."""
+    def generate(self, input_ids: np.ndarray) -> list[Hypothesis]:
+        """Plan-word ids (start first) of the finished beams, best first, for one input's token ids
+        int64 [1, S]."""
         feed = dict(zip(self.cross_names, self._encoder.run(None, {"input_ids": input_ids}), strict=True))
         empty = np.zeros(
             (self.settings.num_beams, self.shape.heads, 0, self.shape.head_dim), dtype=np.float32

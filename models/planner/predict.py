@@ -55,6 +55,7 @@ class PlanPrediction:
     text: str
     subgoals: tuple[Subgoal, ...]
     notes: tuple[ValidationNote, ...]
+    score: float | None = None  # the beam's log-probability over its length, when candidates were asked for
 
 
 def _parse_item(item: str, index: int, ontology: Ontology) -> tuple[list[Subgoal], list[ValidationNote]]:
@@ -188,12 +189,19 @@ class SubgoalGenerator:
         return {vocab.words.index(SubgoalAction.NAVIGATE.value): self.navigate_bias}
 
     def predict_many(self, sources: Sequence[str]) -> list[PlanPrediction]:
-        predictions = []
-        for text in self.generate_texts(sources):
-            subgoals, notes = validate_generated_plan(text, self.ontology)
-            predictions.append(PlanPrediction(text=text, subgoals=tuple(subgoals), notes=tuple(notes)))
-        return predictions
+        return [self._validated(text) for text in self.generate_texts(sources)]
 
     def predict(self, source: str) -> PlanPrediction:
         """The validated plan for one formatted input (``text.format_planner_input``)."""
         return self.predict_many([source])[0]
+
+    def predict_candidates(self, source: str) -> list[PlanPrediction]:
+        """Every finished beam for one input as a validated plan, best first: the first is ``predict``'s,
+        the others the readings the model ranked next (which object a word means, mostly)."""
+        with TORCH_LOCK:
+            (candidates,) = self.decoder.generate_candidates([self.readable(source)])
+        return [self._validated(candidate.text, candidate.score) for candidate in candidates]
+
+    def _validated(self, text: str, score: float | None = None) -> PlanPrediction:
+        subgoals, notes = validate_generated_plan(text, self.ontology)
+        return PlanPrediction(text=text, subgoals=tuple(subgoals), notes=tuple(notes), score=score)

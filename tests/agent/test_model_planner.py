@@ -33,6 +33,18 @@ def test_an_instruction_is_planned_by_the_model_and_repaired(planner: ModelPlann
     assert planner.replans_on_dialogue
 
 
+def test_the_outcome_carries_the_beams_other_readings_of_the_request(planner: ModelPlanner) -> None:
+    """Issue #65: the beam's other plans with the same actions, through the same passes, ready for a
+    subgoal that fails; "the pan" is a Pan first and a Pot next."""
+    outcome = planner.plan(PlanningContext(dialogue=(DialogueTurn("Commander", "put the pan in the sink"),)))
+    assert Subgoal(A.PICKUP, "Pan") in outcome.plan
+    assert any(Subgoal(A.PICKUP, "Pot") in reading for reading in outcome.readings)
+    assert tuple(outcome.plan) not in outcome.readings
+    assert len(set(outcome.readings)) == len(outcome.readings)
+    for reading in outcome.readings:
+        assert [s.action for s in reading] == [s.action for s in outcome.plan]
+
+
 def test_a_coffee_dialogue_becomes_a_coffee_plan(planner: ModelPlanner) -> None:
     context = PlanningContext(
         dialogue=(

@@ -7,14 +7,25 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from executor_support import execute, kitchen, observation, oracle_session, simulator, step_through
+from executor_support import (
+    KITCHEN_ITEMS,
+    KITCHEN_SEED,
+    execute,
+    kitchen,
+    observation,
+    oracle_session,
+    simulator,
+    step_through,
+)
 
 from agent.executor import HistoryStep
 from agent.geometry import Camera, Pose
 from agent.perception import HandRegion, ObservationError
 from agent.planning import make_planner
 from agent.session import AgentSession, Mode, SessionLimits, SessionSpec
+from harness.world.procedural.generate import generate_kitchen
 from symbolic.ontology import load_ontology
+from symbolic.repair import BEAM_READING, SUBGOAL_FAILED
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 A = SubgoalAction
@@ -103,6 +114,29 @@ def test_a_model_planned_session_plans_again_from_what_it_did_when_its_plan_runs
     done = session.executor.completed
     assert Subgoal(A.PICKUP, "Apple") in done
     assert session._planning_context(session.dialogue).history_subgoals == tuple(done)
+
+
+def test_after_a_subgoal_fails_the_session_turns_to_the_models_next_reading() -> None:
+    """Issue #65: "the vase" is read as a glass bottle first; in a kitchen without one the agent gives the
+    bottle up, and the re-plan's first reading asks for it again, so the session follows the beam's next
+    reading (a vase, which the kitchen has) and says so in the repair log."""
+    world = generate_kitchen(KITCHEN_SEED, require=(*KITCHEN_ITEMS, ("Vase", 1)))
+    for object_id in [o.object_id for o in world.of_type("Glassbottle")]:
+        del world.objects[object_id]
+    vase = world.of_type("Vase")[0].object_id
+    sim = simulator(world)
+    session = _model_planned_session("put the vase on the table")
+    assert session.plan[:2] == [Subgoal(A.NAVIGATE, "Glassbottle"), Subgoal(A.PICKUP, "Glassbottle")]
+
+    step_through(session, sim, 800)
+
+    rules = [event.rule for event in session.repair_log]
+    assert SUBGOAL_FAILED in rules and BEAM_READING in rules
+    assert rules.index(SUBGOAL_FAILED) < rules.index(BEAM_READING)
+    turn = next(event for event in session.repair_log if event.rule == BEAM_READING)
+    assert Subgoal(A.PICKUP, "Vase") in turn.inserted and Subgoal(A.PICKUP, "Glassbottle") in turn.removed
+    assert Subgoal(A.PICKUP, "Vase") in session.executor.completed
+    assert sim.world.objects[vase].parent_id is not None  # put down somewhere, not left in hand
 
 
 def test_a_commanders_new_plan_replaces_what_the_executor_meant_to_try_again() -> None:

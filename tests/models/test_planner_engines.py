@@ -57,6 +57,21 @@ def test_onnx_plans_are_the_plans_of_generate(
     assert not differ, f"{len(differ)} of {len(sources)} plans differ from generate's, e.g. {differ[0]}"
 
 
+def test_both_engines_rank_the_same_beam_candidates(
+    torch_generator: SubgoalGenerator, onnx_generator: SubgoalGenerator
+) -> None:
+    """The alternatives a failed subgoal falls back on are the beams ``generate`` keeps, in its order."""
+    for source in real_inputs()[:12]:
+        want = torch_generator.predict_candidates(source)
+        got = onnx_generator.predict_candidates(source)
+        assert [c.text for c in got] == [c.text for c in want], source
+        assert got[0].text == onnx_generator.predict(source).text
+        assert [c.score for c in got] == pytest.approx([c.score for c in want], abs=1e-3)
+        scores = [c.score for c in got]
+        assert scores == sorted(scores, reverse=True)
+        assert len(got) == GenerationConfig().num_beams
+
+
 def test_the_onnx_engine_adds_the_navigate_bias_as_generate_does(torch_generator: SubgoalGenerator) -> None:
     ontology, config = torch_generator.ontology, GenerationConfig(navigate_bias=4.0)  # the default's is 1.5
     want = SubgoalGenerator(torch_generator.planner, ontology, dataclasses.replace(config, engine="torch"))

@@ -7,6 +7,7 @@ import pytest
 from symbolic.registry import Registry, UnknownName
 from symbolic.repair import (
     ASSUME_FILLED,
+    BEAM_READING,
     KIN_STAND_IN,
     MAKE_ROOM,
     PLAN_CHECKS,
@@ -60,6 +61,7 @@ def test_every_rule_the_repair_log_can_name_is_registered_with_a_description() -
         MAKE_ROOM,
         SUBGOAL_FAILED,
         RETRY_GIVEN_UP,
+        BEAM_READING,
     }
     for name in applied_elsewhere:
         rule = REPAIR_RULES.get(name)
