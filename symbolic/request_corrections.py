@@ -150,12 +150,10 @@ def _handles(plan: Sequence[Subgoal], object_type: str, ontology: Ontology) -> b
 
 
 def _renames(wrong: str, meant: str, ontology: Ontology) -> dict[str, str]:
-    """wrong -> meant, and each piece type of wrong to the same kind of piece of meant, where there is one."""
+    """wrong -> meant, and wrong's piece type to meant's when they are the same kind of piece (BreadSliced ->
+    TomatoSliced; not EggCracked -> TomatoSliced)."""
     renames = {wrong: meant}
-    pieces_of_meant = {t: ontology.get(t) for t in ontology.types if ontology.get(t).sliced_from == meant}
-    for piece in ontology.types:
-        if ontology.get(piece).sliced_from == wrong:
-            same_kind = [t for t in pieces_of_meant if t.removeprefix(meant) == piece.removeprefix(wrong)]
-            if same_kind:
-                renames[piece] = same_kind[0]
+    wrong_piece, meant_piece = ontology.get(wrong).sliced_into, ontology.get(meant).sliced_into
+    if wrong_piece and meant_piece and wrong_piece.removeprefix(wrong) == meant_piece.removeprefix(meant):
+        renames[wrong_piece] = meant_piece
     return renames
