@@ -20,11 +20,9 @@ and listed.
 Run: ``.venv/bin/python -m bench.perception_ablation [--n 100] [--workers 2]``; ``--settings A B
 --keep-other-settings`` measures some settings now and keeps the others the file holds for the same
 episodes when the same committed code measured them (a file never mixes code versions). Writes
-``bench/results/perception_ablation.json`` (24 games, all four settings); the issue's 100-game run of
-``oracle`` and ``learned`` is kept in ``perception_ablation_100.json`` (``--n 100 --settings oracle learned
---out bench/results/perception_ablation_100.json``, about 90 minutes on 2 cores: 8 for oracle, 80 for
-learned). ``--task NAME --out FILE`` runs only that task's episodes among the ``--n`` (to re-run one task
-after a change aimed at it).
+``bench/results/perception_ablation.json`` (24 games, all four settings); the 100-game grid with the
+language planner's cells as well is ``bench/table4.py``. ``--task NAME --out FILE`` runs only that task's
+episodes among the ``--n`` (to re-run one task after a change aimed at it).
 """
 
 from __future__ import annotations
