@@ -140,7 +140,10 @@ class ModelPlanner:
             return PlanOutcome(plan=(), repair_log=(), source="model")  # nothing said yet: nothing to plan
         source = planner_source(context)
         started = time.perf_counter()
-        top, *others = self.generator.predict_candidates(source)
+        if context.readings_wanted:
+            top, *others = self.generator.predict_candidates(source)
+        else:
+            top, others = self.generator.predict(source), []
         observer = PLANNER_CALL_OBSERVER.get()
         if observer is not None:
             observer(time.perf_counter() - started)

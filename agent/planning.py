@@ -49,6 +49,9 @@ class PlanningContext:
     belief: BeliefState | None = None
     """The agent's belief now, when it has acted since the history (a re-plan mid-episode); None: the
     belief after the history subgoals."""
+    readings_wanted: bool = False
+    """A re-plan after a subgoal failed: the outcome carries the model's other readings too (the passes run
+    once per reading, so a plan nobody will compare them with skips them)."""
 
     def current_belief(self, ontology: Ontology) -> BeliefState:
         """What repair starts from: the given belief (a copy), or the one after the history."""

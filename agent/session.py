@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -314,7 +315,9 @@ class AgentSession:
         """The plan in DESIGN.md §5's text form, e.g. ``Navigate Knife, Pickup Knife``."""
         return format_subgoals(self.plan)
 
-    def _planning_context(self, dialogue: Sequence[DialogueTurn]) -> PlanningContext:
+    def _planning_context(
+        self, dialogue: Sequence[DialogueTurn], *, readings_wanted: bool = False
+    ) -> PlanningContext:
         """A re-plan reads the history plus what this session has carried out since (the seed's Eq. (1)
         history), and repairs from what the agent believes now (it may hold what the last plan picked up)."""
         return PlanningContext(
@@ -323,6 +326,7 @@ class AgentSession:
             instruction=self.instruction,
             given_subgoals=self.given_subgoals,
             belief=self.executor.belief,
+            readings_wanted=readings_wanted,
         )
 
     # ----- one step ----------------------------------------------------------------------------------
@@ -477,14 +481,15 @@ class AgentSession:
         """Plan from the dialogue and everything done so far; adopt the plan unless it is empty (the model
         says nothing is left). Notes what happened in ``events`` (the step's trace)."""
         self.progress_replans += 1
-        outcome = self.planner.plan(self._planning_context(self.dialogue))
+        after_failure = why == "a subgoal failed"
+        outcome = self.planner.plan(self._planning_context(self.dialogue, readings_wanted=after_failure))
         if not outcome.plan:
             events.append(f"re-planned because {why}: nothing left to do")
             return False
         self.plan = list(outcome.plan)
         self.plan_source = outcome.source
         self.repair_log.extend(outcome.repair_log)
-        if why == "a subgoal failed" and outcome.readings:
+        if after_failure and outcome.readings:
             self._turn_to_another_reading(outcome, events)
         self.pointer = 0
         self.executor.new_plan()
@@ -493,12 +498,14 @@ class AgentSession:
 
     def _turn_to_another_reading(self, outcome: PlanOutcome, events: list[str]) -> None:
         """After a subgoal failed: the model's next reading when its first asks for that subgoal again
-        (``symbolic.readings``), judged by what the map has seen; logged under ``beam-reading``."""
-        failed = {subgoal for e in self.repair_log if e.rule == SUBGOAL_FAILED for subgoal in e.removed}
+        (``symbolic.readings``), judged by what the map has seen and how often the subgoal was given up;
+        logged under ``beam-reading`` when it changes the plan, in the step's trace either way."""
+        given_up = Counter(s for e in self.repair_log if e.rule == SUBGOAL_FAILED for s in e.removed)
         seen = self.semantic_map.last_seen.keys() if self.semantic_map is not None else set()
         readings = (outcome.plan, *outcome.readings)
-        choice = choose_reading(readings, failed, seen)
+        choice = choose_reading(readings, given_up, seen)
         if choice.index == 0:
+            events.append(choice.reason)
             return
         chosen = readings[choice.index]
         self.plan = list(chosen)

@@ -409,7 +409,8 @@ REPAIR_RULES: Registry[Rule] = Registry(
         SUBGOAL_FAILED: Rule("Give up a subgoal the agent could not do; repair the rest.", "executor"),
         RETRY_GIVEN_UP: Rule("Try the given-up subgoals once more when the plan runs out.", "executor"),
         BEAM_READING: Rule(
-            "After a subgoal failed, follow the model's next reading that does not ask for it again.",
+            "After a subgoal failed, follow the model's next reading that does not ask for it again "
+            "and adds only mapped objects (or any, once it failed twice).",
             "session",
         ),
     },

@@ -59,9 +59,14 @@ class TorchPlanDecoder:
         self.settings = settings
 
     def generate_texts(self, sources: Sequence[str]) -> list[str]:
-        return [candidates[0].text for candidates in self.generate_candidates(sources)]
+        return [candidates[0].text for candidates in self._generate(sources, returned=1)]
 
     def generate_candidates(self, sources: Sequence[str]) -> list[list[Candidate]]:
+        return self._generate(sources, returned=self.settings.num_beams)
+
+    def _generate(self, sources: Sequence[str], returned: int) -> list[list[Candidate]]:
+        """The ``returned`` best finished beams of each input (the search is the same either way; asking
+        for one skips decoding and scoring the others)."""
         tokenizer = self.planner.tokenizer
         vocab = self.planner.plan_vocab
         grammar = None
@@ -79,28 +84,28 @@ class TorchPlanDecoder:
             max_length=self.settings.max_source_tokens,
         )
         bias = {(token,): value for token, value in self.settings.bias.items()}
+        scored = returned > 1
         with torch.inference_mode():
             output = self.planner.model.generate(  # type: ignore[operator]
                 input_ids=encoded["input_ids"],
                 attention_mask=encoded["attention_mask"],
                 num_beams=self.settings.num_beams,
-                num_return_sequences=self.settings.num_beams,
+                num_return_sequences=returned,
                 max_new_tokens=self.settings.max_new_tokens,
                 early_stopping=True,
                 prefix_allowed_tokens_fn=grammar,
                 sequence_bias=bias or None,
                 return_dict_in_generate=True,
-                output_scores=True,
+                output_scores=scored,
             )
         rows = output.sequences
         if vocab is not None:
             texts = [vocab.decode(row.tolist()) for row in rows]
         else:
             texts = [text.strip() for text in tokenizer.batch_decode(rows, skip_special_tokens=True)]
-        beams = self.settings.num_beams
-        scores = output.sequences_scores.tolist() if beams > 1 else [0.0] * len(texts)
+        scores = output.sequences_scores.tolist() if scored else [0.0] * len(texts)
         found = [Candidate(text, score) for text, score in zip(texts, scores, strict=True)]
-        return [found[i : i + beams] for i in range(0, len(found), beams)]
+        return [found[i : i + returned] for i in range(0, len(found), returned)]
 
 
 def onnx_applies(planner: PlannerModel) -> bool:

@@ -36,13 +36,17 @@ def test_an_instruction_is_planned_by_the_model_and_repaired(planner: ModelPlann
 def test_the_outcome_carries_the_beams_other_readings_of_the_request(planner: ModelPlanner) -> None:
     """Issue #65: the beam's other plans with the same actions, through the same passes, ready for a
     subgoal that fails; "the pan" is a Pan first and a Pot next."""
-    outcome = planner.plan(PlanningContext(dialogue=(DialogueTurn("Commander", "put the pan in the sink"),)))
+    dialogue = (DialogueTurn("Commander", "put the pan in the sink"),)
+    outcome = planner.plan(PlanningContext(dialogue=dialogue, readings_wanted=True))
     assert Subgoal(A.PICKUP, "Pan") in outcome.plan
     assert any(Subgoal(A.PICKUP, "Pot") in reading for reading in outcome.readings)
     assert tuple(outcome.plan) not in outcome.readings
     assert len(set(outcome.readings)) == len(outcome.readings)
     for reading in outcome.readings:
         assert [s.action for s in reading] == [s.action for s in outcome.plan]
+
+    plain = planner.plan(PlanningContext(dialogue=dialogue))
+    assert plain.plan == outcome.plan and plain.readings == ()  # only a re-plan after a failure asks
 
 
 def test_a_coffee_dialogue_becomes_a_coffee_plan(planner: ModelPlanner) -> None:
