@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from bench.stamp import results_path
-from symbolic.cli_args import Parser, plain
+from symbolic.cli_args import Parser, http_url, int_at_least, plain
 
 
 def bench_parser(name: str, doc: str | None, *, out: bool = True) -> Parser:
@@ -16,3 +16,14 @@ def bench_parser(name: str, doc: str | None, *, out: bool = True) -> Parser:
     if out:
         parser.add_argument("--out", type=Path, default=results_path(name), help="results file")
     return parser
+
+
+def add_episode_options(
+    parser: Parser, *, n: int, n_help: str, run_dir: Path | None, run_dir_help: str
+) -> None:
+    """The options every bench that plays episodes through a service takes: how many, how many at once, a
+    resumable run folder, and a running service to use instead of starting one."""
+    parser.add_argument("--n", type=int_at_least(1), default=n, help=n_help)
+    parser.add_argument("--workers", type=int_at_least(1), default=2, help="episodes run in parallel")
+    parser.add_argument("--run-dir", type=Path, default=run_dir, help=run_dir_help)
+    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")

@@ -27,7 +27,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, cast
 
-from bench.cli import bench_parser
+from bench.cli import add_episode_options, bench_parser
 from bench.planner_tfd import checkpoint_summary
 from bench.stamp import BenchRun, results_path, runs_for_commit
 from harness.drive.evaluate import EvalConfig, evaluate
@@ -35,7 +35,7 @@ from harness.drive.runner import DEFAULT_CAMERA
 from harness.drive.service import ServiceUnreachable, service_url
 from harness.tasks.teach_definitions import BENCHMARK_TASKS
 from harness.world.splits import Split
-from symbolic.cli_args import Parser, fail, http_url, int_at_least
+from symbolic.cli_args import Parser, fail
 
 Perception = Literal["oracle", "learned"]
 SPLIT: Split = "valid_unseen"
@@ -169,10 +169,13 @@ def per_task_table(per_task: Mapping[str, Mapping[str, Any]]) -> str:
 
 def _parser() -> Parser:
     parser = bench_parser("edh", __doc__, out=False)
-    parser.add_argument(
-        "--n", type=int_at_least(1), default=100, help="EDH instances (slot i is task i %% 12)"
+    add_episode_options(
+        parser,
+        n=100,
+        n_help="EDH instances (slot i is task i %% 12)",
+        run_dir=None,
+        run_dir_help="resumable run folder (default: runs/bench/edh_<perception>)",
     )
-    parser.add_argument("--workers", type=int_at_least(1), default=2, help="episodes run in parallel")
     parser.add_argument(
         "--perception",
         default="oracle",
@@ -180,12 +183,8 @@ def _parser() -> Parser:
         help="learned: the depth and segmentation networks, from RGB (several times slower)",
     )
     parser.add_argument(
-        "--run-dir", type=Path, help="resumable run folder (default: runs/bench/edh_<perception>)"
-    )
-    parser.add_argument(
         "--out", type=Path, help="results file (default: bench/results/edh.json; learned: edh_learned.json)"
     )
-    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")
     return parser
 
 

@@ -15,21 +15,20 @@ commit.
 
 from __future__ import annotations
 
-import argparse
 import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from app.settings import Settings
-from bench.cli import bench_parser
+from bench.cli import add_episode_options, bench_parser
 from bench.stamp import BenchRun, runs_for_commit
 from bench.tatc_commander import level_summary
 from harness.drive.evaluate import EvalConfig, evaluate
 from harness.drive.runner import DEFAULT_CAMERA
 from harness.drive.service import service_url
 from harness.world.splits import Split
-from symbolic.cli_args import http_url
+from symbolic.cli_args import Parser
 
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[1] / "models" / "checkpoints" / "planner"
 SPLIT: Split = "valid_unseen"
@@ -47,16 +46,13 @@ def checkpoint_summary() -> dict[str, Any]:
     }
 
 
-def episode_bench_parser(name: str, doc: str | None, n: int, n_help: str) -> argparse.ArgumentParser:
-    """The options every planner SR bench takes: how many episodes, workers, a resumable run folder under
-    ``runs/bench/<name>``, and a running service to use instead of starting one."""
+def episode_bench_parser(name: str, doc: str | None, n: int, n_help: str) -> Parser:
+    """The options every planner SR bench takes (``bench.cli.add_episode_options``), its run folder under
+    ``runs/bench/<name>``."""
     parser = bench_parser(name, doc)
-    parser.add_argument("--n", type=int, default=n, help=n_help)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument(
-        "--run-dir", type=Path, default=Path("runs/bench") / name, help="resumable run folder"
+    add_episode_options(
+        parser, n=n, n_help=n_help, run_dir=Path("runs/bench") / name, run_dir_help="resumable run folder"
     )
-    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")
     return parser
 
 

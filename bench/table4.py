@@ -29,7 +29,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, cast
 
-from bench.cli import bench_parser
+from bench.cli import add_episode_options, bench_parser
 from bench.edh import metric_row
 from bench.planner_tfd import checkpoint_summary
 from bench.stamp import BenchRun, results_path, runs_for_commit
@@ -37,7 +37,7 @@ from harness.drive.evaluate import EvalConfig, evaluate
 from harness.drive.runner import DEFAULT_CAMERA
 from harness.drive.service import ServiceUnreachable, service_url
 from harness.world.splits import Split
-from symbolic.cli_args import Parser, fail, http_url, int_at_least
+from symbolic.cli_args import Parser, fail
 
 SPLIT: Split = "valid_unseen"
 Benchmark = Literal["tfd", "edh"]
@@ -117,18 +117,19 @@ def table(benchmark: Benchmark, cells: Mapping[str, Mapping[str, Any]]) -> str:
 def _parser() -> Parser:
     parser = bench_parser("table4", __doc__, out=False)
     parser.add_argument("--benchmark", choices=("tfd", "edh"), default="tfd")
-    parser.add_argument("--n", type=int_at_least(1), default=100, help="episodes (slot i is task i %% 12)")
+    add_episode_options(
+        parser,
+        n=100,
+        n_help="episodes (slot i is task i %% 12)",
+        run_dir=None,
+        run_dir_help="run folders' parent (default: runs/bench/table4_<benchmark>)",
+    )
     parser.add_argument(
         "--cells", nargs="+", choices=tuple(CELLS), default=list(CELLS), help="the cells to run and report"
-    )
-    parser.add_argument("--workers", type=int_at_least(1), default=2, help="episodes run in parallel")
-    parser.add_argument(
-        "--run-dir", type=Path, help="run folders' parent (default: runs/bench/table4_<benchmark>)"
     )
     parser.add_argument(
         "--out", type=Path, help="results file (default: bench/results/table4_<benchmark>.json)"
     )
-    parser.add_argument("--url", type=http_url, help="a running service (default: start one)")
     return parser
 
 
