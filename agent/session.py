@@ -43,6 +43,7 @@ from agent.executor import (
     history_poses,
     holding_before,
     infer_success,
+    needs_thumbnail,
 )
 from agent.executor.config import STAND_CLEARANCE_M
 from agent.explorers import DEFAULT_EXPLORER, ExplorerName
@@ -348,7 +349,9 @@ class AgentSession:
         success = infer_success(
             self.last_action,
             self.last_digest,
-            frame_digest := digest(obs, self.success_config),
+            frame_digest := digest(
+                obs, self.success_config, thumbnail=needs_thumbnail(obs, self.last_action)
+            ),
             reported=obs.last_action_success,
             poses=(self.last_world_pose, mapped_pose)
             if self.last_world_pose is not None and mapped_pose is not None
@@ -404,6 +407,8 @@ class AgentSession:
         self._apply(decision)
         self.pose = pose
         self.last_world_pose = mapped_pose
+        if frame_digest.thumbnail is None and needs_thumbnail(obs, decision.action):
+            frame_digest = digest(obs, self.success_config)  # the next step compares colours
         self.last_digest = frame_digest
         self.last_action = decision.action
         self.last_path = decision.path

@@ -28,6 +28,7 @@ from agent.executor.success import (
     digest,
     infer_success,
     instance_colour,
+    needs_thumbnail,
 )
 
 __all__ = [
@@ -52,6 +53,7 @@ __all__ = [
     "VisibleInstance",
     "choose_click",
     "digest",
+    "needs_thumbnail",
     "history_poses",
     "holding_before",
     "infer_success",

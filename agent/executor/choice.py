@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from agent.executor.clicks import VisibleInstance
 from agent.executor.context import StepContext
-from agent.executor.looks import Looks, looks, stained_share
+from agent.executor.looks import Looks, instance_looks
 from agent.executor.mapview import MapCluster
 from agent.executor.state import Attempt, Box, Memory, Point, in_box
 from agent.executor.switches import is_switched
@@ -309,8 +309,8 @@ class InstanceChoice:
             return
         fresh: list[tuple[float, float, Looks]] = []
         for v in self.ctx.view.visible(obj):
-            share = stained_share(rgb, self.ctx.view.percept.instances == v.instance_id, self.ctx.cfg.stain)
-            verdict = looks(share, self.ctx.cfg.stain)
+            mask = self.ctx.view.percept.instances == v.instance_id
+            verdict = instance_looks(rgb, mask, self.ctx.cfg.stain)
             if verdict != "unknown":
                 fresh.append((v.point[0], v.point[2], verdict))
         if not fresh:

@@ -7,6 +7,10 @@ so a pixel counts as stained when (R − B) / (R + G + B) exceeds ``stain_chroma
 channels alike and leaves that ratio alone. On 8 generated kitchens at 300x300, clean mugs, cups, bowls,
 plates, pots and pans show at most 2.3% stained pixels and dirty ones at least 6.8% (a dirty plate seen
 edge-on may show none), hence the two cut-offs and the "cannot tell" band between them.
+
+A stain is on one side of a dish: an instance cut by the frame's edge may hide it, so such a view can say
+"dirty" but never "clean". Reading it clean made the agent dither: a dirty mug at the left edge looked
+clean, the agent turned to it, saw the stain, turned back to its search, and so on for 100 steps.
 """
 
 from __future__ import annotations
@@ -45,3 +49,12 @@ def looks(share: float | None, config: StainConfig) -> Looks:
     if share >= config.dirty_share:
         return "dirty"
     return "clean" if share < config.clean_share else "unknown"
+
+
+def instance_looks(rgb: np.ndarray, mask: np.ndarray, config: StainConfig) -> Looks:
+    """The verdict on one instance's pixels (bool mask [H, W]); "clean" only when the whole instance is in
+    the frame (module docstring)."""
+    verdict = looks(stained_share(rgb, mask, config), config)
+    if verdict == "clean" and (mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any()):
+        return "unknown"
+    return verdict

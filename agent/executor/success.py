@@ -19,7 +19,9 @@ normalised mean colour (99th percentile 0.05) and change no thumbnail cell (360 
 with the clipped-cell rule), while a switched-on appliance moves its colour by 0.77 or more.
 
 A frame's summary (``FrameDigest``) is small (a hash and a 48x48 thumbnail), so the session keeps it between
-steps instead of the frame itself (DESIGN.md §8's 2 MB per session).
+steps instead of the frame itself (DESIGN.md §8's 2 MB per session). The thumbnail is made only when a
+comparison will read it (``needs_thumbnail``): with depth and segmentation, only around Toggle and Pour;
+it is 0.9 of the digest's 1 ms at 300x300.
 """
 
 from __future__ import annotations
@@ -58,7 +60,8 @@ class FrameDigest:
     """What the next step needs of this frame to tell whether the action taken from it changed anything."""
 
     geometry: bytes | None  # CRC-32s of depth and instance ids (every other pixel); None without both
-    thumbnail: np.ndarray | None  # float32 [S, S, 3] exposure-normalised colours; None without RGB
+    thumbnail: np.ndarray | None  # float32 [S, S, 3] exposure-normalised colours; None without RGB or
+    # when no comparison will read it (``needs_thumbnail``)
     clipped: np.ndarray | None  # bool [S, S]: cells holding saturated pixels
     exposure: np.ndarray | None  # float32 [3] per-channel mean of the frame
 
@@ -76,8 +79,14 @@ class SuccessEstimate:
     evidence: str
 
 
-def digest(obs: Observation, config: SuccessConfig) -> FrameDigest:
-    """The summary of one observation (about 1 ms at 300x300).
+def needs_thumbnail(obs: Observation, action: str | None) -> bool:
+    """Whether judging ``action`` against this frame (taken from it, or just before it) may compare RGB
+    thumbnails: without depth and segmentation always, else only for the actions that change no geometry."""
+    return obs.depth is None or obs.instances is None or action in GEOMETRY_SILENT_ACTIONS
+
+
+def digest(obs: Observation, config: SuccessConfig, *, thumbnail: bool = True) -> FrameDigest:
+    """The summary of one observation (about 1 ms at 300x300 with the thumbnail, 0.1 ms without).
 
     The geometry fingerprint reads every other row and column: any change an action makes to depth or
     segmentation (an object moved, a door swung, the view turned) spans more than a 2x2 block of pixels.
@@ -89,18 +98,19 @@ def digest(obs: Observation, config: SuccessConfig) -> FrameDigest:
         depth_crc = zlib.crc32(np.ascontiguousarray(obs.depth[::2, ::2]).data)
         instances_crc = zlib.crc32(np.ascontiguousarray(obs.instances[::2, ::2]).data)
         geometry = depth_crc.to_bytes(4, "little") + instances_crc.to_bytes(4, "little")
-    thumbnail = clipped = exposure = None
-    if obs.rgb is not None:
+    if obs.rgb is None:
+        return FrameDigest(geometry=geometry, thumbnail=None, clipped=None, exposure=None)
+    exposure = np.maximum(np.asarray(cv2.mean(obs.rgb)[:3]), 1.0).astype(np.float32)  # [3]
+    small = clipped = None
+    if thumbnail:
         side = config.thumbnail_side
-        small = cv2.resize(obs.rgb, (side, side), interpolation=cv2.INTER_AREA).astype(np.float32)
-        exposure = np.maximum(small.reshape(-1, 3).mean(axis=0), 1.0).astype(np.float32)  # [3]
-        thumbnail = small / exposure
+        small = cv2.resize(obs.rgb, (side, side), interpolation=cv2.INTER_AREA).astype(np.float32) / exposure
         below = config.saturated - 1
         unclipped = cv2.inRange(
             obs.rgb, (0, 0, 0), (below, below, below)
         )  # [H, W] 255 where no channel clips
         clipped = cv2.resize(unclipped, (side, side), interpolation=cv2.INTER_AREA) < 255
-    return FrameDigest(geometry=geometry, thumbnail=thumbnail, clipped=clipped, exposure=exposure)
+    return FrameDigest(geometry=geometry, thumbnail=small, clipped=clipped, exposure=exposure)
 
 
 def instance_colour(obs: Observation, frame: FrameDigest, instance_id: int) -> np.ndarray | None:

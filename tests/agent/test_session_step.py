@@ -19,6 +19,7 @@ from executor_support import (
 )
 
 from agent.executor import HistoryStep
+from agent.executor.success import GEOMETRY_SILENT_ACTIONS
 from agent.geometry import Camera, Pose
 from agent.perception import HandRegion, ObservationError
 from agent.planning import make_planner
@@ -305,3 +306,47 @@ def test_the_hand_region_covers_every_held_object_at_any_resolution_and_field_of
             covered += 1
     assert covered >= 20
     assert hand.sum() <= 1.6 * union.sum(), "no more of the view is given up than held objects cover"
+
+
+def test_a_session_makes_the_colour_thumbnail_only_for_the_toggle_it_judges_next() -> None:
+    """With depth and segmentation, a ToggleOn changes no geometry and is judged by colour; every other
+    action by geometry, so the 1 ms thumbnail is made for the frames before and after a toggle only."""
+    sim = simulator(kitchen())
+    session = _session("Navigate CoffeeMachine, ToggleOn CoffeeMachine")
+    actions = []
+    for step in range(200):
+        decision = session.step_once(observation(sim.observe(noise_seed=step), sim.world.agent))
+        assert session.last_digest is not None
+        around_a_toggle = {decision.action, *actions[-1:]} & GEOMETRY_SILENT_ACTIONS
+        assert (session.last_digest.thumbnail is not None) == bool(around_a_toggle)
+        actions.append(decision.action)
+        if decision.done:
+            break
+        execute(sim, decision.action, decision.x, decision.y)
+
+    assert actions.count("ToggleOn") == 1  # judged a success the first time, not clicked again
+    assert Subgoal(A.TOGGLE_ON, "CoffeeMachine") in session.executor.completed
+    (machine,) = sim.world.of_type("CoffeeMachine")
+    assert machine.is_toggled
+
+
+def test_a_dirty_mug_half_out_of_view_does_not_make_the_agent_turn_back_and_forth() -> None:
+    """The coffee plan wants a clean mug; this kitchen's only mug is dirty, so the agent searches the
+    room before taking it. Seen at the frame's left edge, its stain out of view, it used to look clean:
+    the agent turned to it, saw the stain, turned back to its search, and dithered until the subgoal's
+    step limit."""
+    sim = simulator(kitchen())
+    (mug,) = sim.world.of_type("Mug")
+    assert mug.is_dirty
+    session = _session("Navigate Mug, Pickup Mug")
+    decisions = step_through(session, sim, 600)
+
+    actions = [d.action for d in decisions]
+    turns = ("Turn Left", "Turn Right")
+    dithering = [
+        i
+        for i in range(len(actions) - 6)
+        if all(actions[i + k] in turns and actions[i + k] != actions[i + k + 1] for k in range(6))
+    ]
+    assert not dithering, f"turned back and forth from step {dithering[0]}"
+    assert sim.world.agent.held == mug.object_id
