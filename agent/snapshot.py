@@ -69,7 +69,7 @@ from symbolic.repair import RepairEvent
 from symbolic.subgoals import Subgoal, SubgoalAction
 
 MAGIC = b"JARVSNAP"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """Bump on any change to the layout or the meaning of a node; older snapshots are then refused, not
 mis-read (a session restarts rather than resumes from a state it would misunderstand)."""
 _HEADER = struct.Struct(">8sH")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from agent.executor.clicks import VisibleInstance
 from agent.executor.context import StepContext
-from agent.executor.looks import Looks, instance_looks
+from agent.executor.looks import LookRecord, Looks, looks, stained_share
 from agent.executor.mapview import MapCluster
 from agent.executor.state import Attempt, Box, Memory, Point, in_box
 from agent.executor.switches import is_switched
@@ -298,28 +298,35 @@ class InstanceChoice:
     def _looks_at(self, obj: str, x: float, z: float) -> Looks:
         """What the stain cue last said about the instance of ``obj`` at (x, z)."""
         records = self.memory.looks.get(obj, [])
-        near = [(math.hypot(x - rx, z - rz), verdict) for rx, rz, verdict in records]
+        near = [(math.hypot(x - rx, z - rz), verdict) for rx, rz, verdict, _ in records]
         near = [item for item in near if item[0] <= self.ctx.cfg.done_radius_m]
         return min(near)[1] if near else "unknown"
 
     def _note_looks(self, obj: str) -> None:
-        """Remember how the visible instances of a dirtyable type look (stain cue, ``looks``)."""
+        """Remember how the visible instances of a dirtyable type look (stain cue, ``looks``), unless an
+        earlier verdict on the same spot was read from many more pixels (``StainConfig.replace_share``)."""
         rgb = self.ctx.inputs.observation.rgb
         if rgb is None or not self.ctx.onto.get(obj).dirtyable:
             return
-        fresh: list[tuple[float, float, Looks]] = []
+        stain = self.ctx.cfg.stain
+        fresh: list[LookRecord] = []
         for v in self.ctx.view.visible(obj):
             mask = self.ctx.view.percept.instances == v.instance_id
-            verdict = instance_looks(rgb, mask, self.ctx.cfg.stain)
+            verdict = looks(stained_share(rgb, mask, stain), stain)
             if verdict != "unknown":
-                fresh.append((v.point[0], v.point[2], verdict))
+                fresh.append((v.point[0], v.point[2], verdict, int(mask.sum())))
         if not fresh:
             return
         if not self.ctx.view.percept.persistent_ids:
             fresh = _stains_spread_to_fragments(fresh, self.ctx.cfg.stain_fragment_m)
         records = self.memory.looks.setdefault(obj, [])
         radius = self.ctx.cfg.done_radius_m
-        kept = [r for r in records if all(math.hypot(r[0] - x, r[1] - z) > radius for x, z, _ in fresh)]
+
+        def near(a: LookRecord, b: LookRecord) -> bool:
+            return math.hypot(a[0] - b[0], a[1] - b[1]) <= radius
+
+        fresh = [f for f in fresh if all(f[3] >= stain.replace_share * r[3] for r in records if near(f, r))]
+        kept = [r for r in records if not any(near(r, f) for f in fresh)]
         records[:] = kept + fresh  # what this view says replaces what earlier views said about the same spot
 
     def chosen_visible(self, obj: str, attempt: Attempt) -> VisibleInstance | None:
@@ -483,13 +490,11 @@ def _xzy(point: Point) -> tuple[float, float, float]:
     return point[0], point[2], point[1]
 
 
-def _stains_spread_to_fragments(
-    fresh: list[tuple[float, float, Looks]], radius_m: float
-) -> list[tuple[float, float, Looks]]:
+def _stains_spread_to_fragments(fresh: list[LookRecord], radius_m: float) -> list[LookRecord]:
     """One view's verdicts, every piece within ``radius_m`` of a stained piece stained too: learned
     segmentation splits a dirty plate into its stained middle and a clean-looking rim."""
-    stained = [(x, z) for x, z, verdict in fresh if verdict == "dirty"]
+    stained = [(x, z) for x, z, verdict, _ in fresh if verdict == "dirty"]
     return [
-        (x, z, "dirty" if any(math.hypot(x - sx, z - sz) <= radius_m for sx, sz in stained) else verdict)
-        for x, z, verdict in fresh
+        (x, z, "dirty" if any(math.hypot(x - sx, z - sz) <= radius_m for sx, sz in stained) else verdict, n)
+        for x, z, verdict, n in fresh
     ]

@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 
 from agent.executor.clicks import Click
-from agent.executor.looks import Looks
+from agent.executor.looks import LookRecord
 from agent.executor.mapview import IgnoredSpot
 from agent.geometry import Pose
 from agent.navigation.exploration import Explorer
@@ -120,8 +120,8 @@ class Memory:
     """Type -> segmentation ids of the instances in ``done_with``: in view, the id decides."""
     done_with: dict[str, list[Spot]] = field(default_factory=dict)
     """Type -> spots of instances the plan has finished with; a new "Navigate X" means another X."""
-    looks: dict[str, list[tuple[float, float, Looks]]] = field(default_factory=dict)
-    """Type -> (x, z, "clean" | "dirty") of instances the stain cue judged (``looks``)."""
+    looks: dict[str, list[LookRecord]] = field(default_factory=dict)
+    """Type -> (x, z, "clean" | "dirty", pixels read) of instances the stain cue judged (``looks``)."""
     source: dict[str, Point] = field(default_factory=dict)
     """Type -> where instances of it came from (the pieces of a slice): more may lie hidden there."""
     instance: dict[str, int] = field(default_factory=dict)

@@ -331,10 +331,10 @@ def test_a_session_makes_the_colour_thumbnail_only_for_the_toggle_it_judges_next
 
 
 def test_a_dirty_mug_half_out_of_view_does_not_make_the_agent_turn_back_and_forth() -> None:
-    """The coffee plan wants a clean mug; this kitchen's only mug is dirty, so the agent searches the
-    room before taking it. Seen at the frame's left edge, its stain out of view, it used to look clean:
+    """A plan that uses the mug wants a clean one; this kitchen's only mug is dirty, so the agent looks
+    around before taking it. Seen half out of frame, its stain out of view, it used to look clean again:
     the agent turned to it, saw the stain, turned back to its search, and dithered until the subgoal's
-    step limit."""
+    step limit (a view showing a quarter of the pixels overruled the one that saw the stain)."""
     sim = simulator(kitchen())
     (mug,) = sim.world.of_type("Mug")
     assert mug.is_dirty
