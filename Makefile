@@ -47,13 +47,13 @@ $(CHROMIUM):
 browser: $(CHROMIUM)
 
 test: lint browser
-	$(PY) -m pytest -q -m "not slow and not results"
+	$(PY) -m pytest -q -m "not slow"
 
 test-slow: $(STAMP)
 	$(PY) -m pytest -q -m slow
 
 check-results: $(STAMP)
-	$(PY) -m pytest -q -m results tests/bench/test_results_stamped.py
+	$(PY) -m pytest -q tests/bench/test_results_stamped.py
 
 serve: $(STAMP)
 	JARVIS_HOST=$(HOST) JARVIS_PORT=$(PORT) $(PY) -m app

@@ -993,12 +993,14 @@ def test_one_stained_piece_of_a_dish_stains_the_pieces_beside_it_but_not_the_dis
     from agent.executor.choice import _stains_spread_to_fragments
 
     radius = ExecutorConfig().stain_fragment_m
-    middle, rim, neighbour = (0.49, -2.54, "dirty"), (0.50, -2.70, "clean"), (0.87, -2.58, "clean")
+    middle, rim = (0.49, -2.54, "dirty", 400), (0.50, -2.70, "clean", 150)
+    neighbour = (0.87, -2.58, "clean", 500)
     assert math.dist(middle[:2], rim[:2]) < radius < math.dist(middle[:2], neighbour[:2]) - 0.1
 
     spread = _stains_spread_to_fragments([middle, rim, neighbour], radius)
 
-    assert [verdict for _, _, verdict in spread] == ["dirty", "dirty", "clean"]
+    assert [verdict for _, _, verdict, _ in spread] == ["dirty", "dirty", "clean"]
+    assert [pixels for *_, pixels in spread] == [400, 150, 500]
 
 
 # ----- what learned segmentation gets wrong ---------------------------------------------------------------

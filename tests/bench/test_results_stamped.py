@@ -45,7 +45,6 @@ def in_a_checkout() -> None:
         pytest.skip("not a git checkout: no commit to hold the results to")
 
 
-@pytest.mark.results
 @pytest.mark.usefixtures("in_a_checkout")
 def test_every_results_file_is_stamped_by_committed_code_that_head_contains() -> None:
     files = sorted(RESULTS_DIR.glob("*.json"))
