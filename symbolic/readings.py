@@ -8,6 +8,10 @@ is weak evidence: the search may have missed an object that is there (ALFRED val
 that way to a Mug reading). So another reading is taken at once only when the objects it adds are on the
 map; otherwise the first reading gets another try, and only a subgoal given up again sends the agent to a
 reading whose objects are not mapped yet. Without a failure, the model's first reading always stands.
+
+Game 30's Mug is mapped, so this rule still takes it. Retrying the first reading once whatever the map
+says wins game 30 but loses game 38 (its Knife is absent; the ButterKnife reading is the way): on the
+readings' games of both benches the two rules end level, so the map decides here.
 """
 
 from __future__ import annotations
