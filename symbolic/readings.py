@@ -66,10 +66,11 @@ def choose_reading(
     if not others:
         return ReadingChoice(0, f"no other reading avoids {again} (given up)")
     mapped = [i for i in others if not unmapped_added(readings[i])]
+    tries = max(given_up[subgoal] for subgoal in repeated)
     if mapped:
         best = min(mapped, key=lambda i: (repeats(readings[i]), i))
         why = "every object it adds is mapped"
-    elif max(given_up.get(subgoal, 0) for subgoal in repeated) < TRIES_BEFORE_UNMAPPED:
+    elif tries < TRIES_BEFORE_UNMAPPED:
         missing = sorted({obj for i in others for obj in unmapped_added(readings[i])})
         return ReadingChoice(
             0,
@@ -78,9 +79,7 @@ def choose_reading(
         )
     else:
         best = min(others, key=lambda i: (repeats(readings[i]), len(unmapped_added(readings[i])), i))
-        why = f"{again} given up {TRIES_BEFORE_UNMAPPED} times; not mapped yet: " + ", ".join(
-            unmapped_added(readings[best])
-        )
+        why = f"given up {tries} times; not mapped yet: " + ", ".join(unmapped_added(readings[best]))
     reason = (
         f"the model's reading {best + 1} of {len(readings)} instead of its first, which asks again for "
         f"{again} (given up); {why}"
