@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -54,11 +54,22 @@ class Trace:
         self._lines: deque[tuple[int, str]] = deque(maxlen=capacity)
         self._bytes = 0
 
+    @classmethod
+    def from_lines(cls, lines: Iterable[tuple[int, str]], capacity: int = DEFAULT_CAPACITY) -> Trace:
+        """A trace holding (step, JSON line) pairs kept elsewhere (a shared store's copy), oldest first; the
+        last ``capacity`` are kept, as ``append`` would have."""
+        trace = cls(capacity)
+        for step, line in lines:
+            trace._keep(step, line)
+        return trace
+
     def append(self, entry: TraceEntry) -> None:
-        line = entry.to_json()
+        self._keep(entry.step, entry.to_json())
+
+    def _keep(self, step: int, line: str) -> None:
         if len(self._lines) == self._lines.maxlen:
             self._bytes -= len(self._lines[0][1])
-        self._lines.append((entry.step, line))
+        self._lines.append((step, line))
         self._bytes += len(line)
 
     def lines(self, since: int | None = None) -> Iterator[str]:

@@ -17,7 +17,9 @@ clock, so hosts need not agree on time); the session's hash expires with the sam
 Readers never take the lease: the same script that stores a change's snapshot stores its published view
 (``app.live_view``) in the session's hash (``view``, ``vrev``, and ``frame`` when a step brought one) and
 the new trace lines in a sorted set by step, so any worker serves ``GET /v1/sessions/{id}``, its trace, its
-map and the live page from the last completed change while another worker steps the session. Those reads
+map and the live page from the last completed change while another worker steps the session. The snapshot
+leaves the trace out (the sorted set holds the same lines, written by the same script) and a load takes it
+back from the set. Those reads
 go through an asyncio client (a live page's stream polls ``vrev`` without a worker thread), and each worker
 keeps the views it decoded by revision, so the map of one revision is drawn once per worker.
 """
@@ -41,6 +43,7 @@ from agent.perception import NetworkPaths
 from agent.planning import Planner
 from agent.session import AgentSession
 from agent.trace import DEFAULT_CAPACITY as TRACE_CAPACITY
+from agent.trace import Trace
 from app.live_view import SessionView, frame_to_bytes
 from app.store import SessionBusy, SessionNotFound, StoredSession, StoreFull
 from symbolic.ontology import Ontology
@@ -302,15 +305,21 @@ class RedisSessionStore:
     # ----- snapshots ----------------------------------------------------------------------------------
     def _encode(self, stored: StoredSession) -> tuple[bytes, bytes]:
         started = time.perf_counter()
-        snapshot = stored.session.to_bytes()
+        snapshot = stored.session.to_bytes(with_trace=False)  # the trace zset holds its lines
         if self._on_snapshot is not None:
             self._on_snapshot("save", time.perf_counter() - started, len(snapshot))
         return snapshot, orjson.dumps(stored.meta)
 
-    def _decode(self, snapshot: bytes, meta: bytes, owner: str | None) -> StoredSession:
+    def _decode(
+        self, snapshot: bytes, meta: bytes, trace: list[tuple[bytes, float]], owner: str | None
+    ) -> StoredSession:
         started = time.perf_counter()
         session = AgentSession.from_bytes(
-            snapshot, ontology=self._ontology, planners=self._planners, networks=self._networks
+            snapshot,
+            ontology=self._ontology,
+            planners=self._planners,
+            networks=self._networks,
+            trace=Trace.from_lines(((int(step), _text(line)) for line, step in trace), TRACE_CAPACITY),
         )
         if self._on_snapshot is not None:
             self._on_snapshot("load", time.perf_counter() - started, len(snapshot))
@@ -555,10 +564,13 @@ class RedisSessionStore:
             if cached is not None and cached.version == version:
                 self._cache.move_to_end(session_id)
                 return cached.stored
-        snapshot, meta = self._redis.hmget(self._session_key(session_id), ["snap", "meta"])
+        with self._redis.pipeline(transaction=True) as pipe:
+            pipe.hmget(self._session_key(session_id), ["snap", "meta"])
+            pipe.zrange(self._trace_key(session_id), 0, -1, withscores=True)
+            (snapshot, meta), trace = pipe.execute()
         if not isinstance(snapshot, bytes) or not isinstance(meta, bytes):
             raise SessionNotFound(session_id)
-        return self._decode(snapshot, meta, owner)
+        return self._decode(snapshot, meta, trace, owner)
 
     def _remember(self, session_id: str, version: int, stored: StoredSession) -> None:
         with self._cache_guard:

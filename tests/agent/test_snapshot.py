@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import json
 import struct
 import sys
 import zlib
@@ -26,6 +27,7 @@ from agent.navigation.exploration import FrontierExplorer
 from agent.planning import make_planner
 from agent.session import AgentSession
 from agent.snapshot import FORMAT_VERSION, MAGIC, Name, SnapshotError, Tag, dumps, loads
+from agent.trace import Trace
 from harness.sim.simulator import Simulator
 from symbolic.ontology import load_ontology
 from symbolic.subgoals import Subgoal, SubgoalAction
@@ -64,6 +66,23 @@ def test_a_restored_session_decides_as_the_original_step_after_step(
         assert restored.step_once(upcoming) == decision, f"decision {step} after loading differs"
         execute(sim, decision.action, decision.x, decision.y)
     assert len(restored.trace) == len(session.trace)  # the lines differ in their timings
+
+
+def test_a_snapshot_without_its_trace_is_smaller_and_loads_only_with_the_trace_given(
+    searching: tuple[AgentSession, Simulator],
+) -> None:
+    """A shared store keeps the trace lines itself, so its snapshots leave them out; loading one takes the
+    trace from the caller, and refuses to invent an empty one."""
+    session, _ = searching
+    full, lean = session.to_bytes(), session.to_bytes(with_trace=False)
+    kept = Trace.from_lines((int(json.loads(line)["step"]), line) for line in session.trace.lines())
+
+    restored = AgentSession.from_bytes(lean, trace=kept)
+
+    assert len(lean) < len(full)
+    assert restored.trace is kept and list(kept.lines()) == list(session.trace.lines())
+    with pytest.raises(SnapshotError, match="without its trace"):
+        AgentSession.from_bytes(lean)
 
 
 def test_what_the_session_shares_is_shared_after_loading(searching: tuple[AgentSession, Simulator]) -> None:

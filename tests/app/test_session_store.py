@@ -22,6 +22,7 @@ from fastapi.testclient import TestClient
 from agent.geometry import Camera
 from agent.planning import PlannerConfig, make_planner
 from agent.session import AgentSession, SessionSpec
+from agent.trace import TraceEntry
 from app.keys import hash_key
 from app.redis_store import LeaseLost, RedisSessionStore
 from app.store import (
@@ -216,6 +217,48 @@ def test_redis_a_write_through_one_worker_is_what_the_other_reads(
         held.meta["note"] = 2
     with first.hold("a", None, 1.0, write=False) as held:  # the first's copy is stale: it loads again
         assert held.session.step == 7 and held.meta == {"note": 2}
+
+
+def test_redis_a_session_loaded_by_another_worker_has_every_trace_line(
+    two_workers: tuple[RedisSessionStore, RedisSessionStore],
+) -> None:
+    """Snapshots leave the trace out (the trace's sorted set holds it); the worker that loads a session
+    gets its lines back from there, so the session's own view shows what the other worker wrote."""
+    first, second = two_workers
+    first.create(StoredSession(_session("a"), None))
+    for step in range(3):
+        with first.hold("a", None, 1.0, write=True) as held:
+            held.session.trace.append(_trace_entry(step))
+    written = list(_session_of(first, "a").trace.lines())
+
+    loaded = _session_of(second, "a")
+
+    assert len(written) == 3 and list(loaded.trace.lines()) == written
+    assert loaded.trace.nbytes == sum(len(line) for line in written)
+
+
+def _trace_entry(step: int) -> TraceEntry:
+    return TraceEntry(
+        step,
+        "2024-05-01T00:00:00+00:00",
+        {},
+        None,
+        None,
+        "",
+        {},
+        {},
+        None,
+        0,
+        "RotateLeft",
+        None,
+        None,
+        "test",
+    )
+
+
+def _session_of(store: RedisSessionStore, session_id: str) -> AgentSession:
+    with store.hold(session_id, None, 1.0, write=False) as held:
+        return held.session
 
 
 def test_redis_a_block_that_raises_stores_nothing(
