@@ -7,7 +7,9 @@ words (``symbolic.request_words``), and it does so with the model's own cycle: t
 object's Pickup (and the Navigate to it) until another object is picked up. A count repeats the cycle until
 the plan holds as many as were asked; an object joined to one the plan handles gets that object's cycle
 with its own type ("clean a mug and a pan" gives the pan the mug's Navigate, Pickup, Place SinkBasin,
-ToggleOn Faucet, ToggleOff Faucet). Cycles already done (the history subgoals of EDH, or what the agent
+ToggleOn Faucet, ToggleOff Faucet). An object the plan cuts (or switches, opens) where it stands instead of
+carrying it has no cycle, and a joined object then gets those steps ("cut a tomato and a lettuce" gives the
+tomato Navigate, Slice, in the order said). Cycles already done (the history subgoals of EDH, or what the agent
 completed before a re-plan) count toward the number.
 
 It only adds: nothing the model planned is removed, a number no cycle can be found for changes nothing,
@@ -240,10 +242,38 @@ def _cover_count(state: _Plan, mention: Mention, ontology: Ontology) -> None:
     )
 
 
+WORKED_ON = frozenset({A.SLICE, A.TOGGLE_ON, A.TOGGLE_OFF, A.OPEN, A.CLOSE})
+"""Actions on the object itself, not on what is put in it (Place, Pour): what ``worked_on`` spans hold."""
+
+
+def worked_on(plan: Sequence[Subgoal], obj: str) -> list[Cycle]:
+    """The spans in which the plan works ``obj`` where it stands: its own steps of ``WORKED_ON`` in a row,
+    with the Navigate to it before ("Navigate Lettuce, Slice Lettuce"). A joined object that is cut rather
+    than carried ("cut a tomato and a lettuce") has no cycle, and copies one of these instead."""
+    found: list[Cycle] = []
+    index = 0
+    while index < len(plan):
+        if plan[index].obj != obj or plan[index].action not in WORKED_ON:
+            index += 1
+            continue
+        start = index - 1 if index > 0 and plan[index - 1] == Subgoal(A.NAVIGATE, obj) else index
+        end = index + 1
+        while end < len(plan) and plan[end].obj == obj and plan[end].action in WORKED_ON:
+            end += 1
+        found.append(Cycle(obj, start, end))
+        index = end
+    return found
+
+
+def _handled(plan: Sequence[Subgoal], obj: str, ontology: Ontology) -> list[Cycle]:
+    """The plan's cycles of ``obj``, else the spans that work on it where it stands."""
+    return cycles(plan, obj, ontology) or worked_on(plan, obj)
+
+
 def _cover_group(state: _Plan, group: Group, request: Request, ontology: Ontology) -> None:
     for position, mention in enumerate(group.members):
         obj = _cycle_object(state.subgoals, mention.object_type, ontology)
-        if cycles(state.subgoals, obj, ontology):
+        if _handled(state.subgoals, obj, ontology):
             continue
         source = _nearest_handled(state, group.members, position, ontology)
         if source is None:
@@ -287,11 +317,12 @@ def _another(cycle: Sequence[Subgoal], obj: str) -> list[Subgoal]:
 def _nearest_handled(
     state: _Plan, group: Sequence[Mention], position: int, ontology: Ontology
 ) -> tuple[Mention, list[Cycle]] | None:
-    """The joined mention nearest before (else after) ``position`` whose object the plan has cycles for."""
+    """The joined mention nearest before (else after) ``position`` whose object the plan handles (cycles,
+    else spans that work on it)."""
     order = [*range(position - 1, -1, -1), *range(position + 1, len(group))]
     for index in order:
         other = group[index]
-        found = cycles(state.subgoals, _cycle_object(state.subgoals, other.object_type, ontology), ontology)
+        found = _handled(state.subgoals, _cycle_object(state.subgoals, other.object_type, ontology), ontology)
         if found:
             return other, found
     return None

@@ -32,6 +32,22 @@ def test_a_conjoined_object_gets_the_cycle_of_the_one_the_model_planned() -> Non
     assert format_subgoals(events[0].inserted) == CLEAN_MUG.replace("Mug", "Pan")
 
 
+def test_a_conjoined_object_that_is_cut_not_carried_gets_the_cutting_in_the_order_said() -> None:
+    knife = "Navigate Knife, Pickup Knife"
+    covered, events = _cover("cut a tomato and a lettuce", f"{knife}, Navigate Lettuce, Slice Lettuce")
+    assert covered == f"{knife}, Navigate Tomato, Slice Tomato, Navigate Lettuce, Slice Lettuce"
+    assert [(e.rule, format_subgoals(e.inserted)) for e in events] == [
+        (REQUEST_CONJUNCTION, "Navigate Tomato, Slice Tomato")
+    ]
+
+
+def test_putting_something_on_an_object_is_not_working_on_it() -> None:
+    """A plate that only receives the toast is not handled as the plate the commander asked to clean."""
+    toast_on_plate = "Navigate BreadSliced, Pickup BreadSliced, Navigate Plate, Place Plate"
+    covered, events = _cover("clean a mug and a plate", f"{CLEAN_MUG}, {toast_on_plate}")
+    assert events and CLEAN_MUG.replace("Mug", "Plate") in covered
+
+
 def test_a_count_repeats_the_cycle_and_a_counted_conjoined_object_gets_as_many() -> None:
     plate = CLEAN_MUG.replace("Mug", "Plate")
     covered, events = _cover("clean two plates and two cups", plate)
