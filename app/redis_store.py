@@ -15,7 +15,8 @@ Capacity, per-owner caps and idle expiry are sorted sets of session ids scored b
 clock, so hosts need not agree on time); the session's hash expires with the same TTL.
 
 Readers never take the lease: the same script that stores a change's snapshot stores its published view
-(``app.live_view``) in the session's hash (``view``, ``vrev``, and ``frame`` when a step brought one) and
+(``app.live_view``) in the session's hash (``view``, ``vrev``, and ``frame`` when a step brought one and a
+live page watches the session: ``UNWATCHED_FRAME``) and
 the new trace lines in a sorted set by step, so any worker serves ``GET /v1/sessions/{id}``, its trace, its
 map and the live page from the last completed change while another worker steps the session. The snapshot
 leaves the trace out (the sorted set holds the same lines, written by the same script) and a load takes it
@@ -53,6 +54,10 @@ OPEN_OWNER = "~"
 LEASE_POLL_S = (0.002, 0.005, 0.01, 0.02)
 """Waits between tries for a busy lease (then the last one repeats): short, as most steps take ~20 ms."""
 
+UNWATCHED_FRAME = b"-"
+"""What a step stores for its frame while no live page watches the session: it drops the last one instead
+of encoding its own (a JPEG took 0.4-0.9 ms of every step); the page's next poll marks the session watched
+(``view_revision(watch_s=...)``) and the steps after it store theirs."""
 VIEW_CACHE_SIZE = 64
 """Decoded views a worker keeps (by session and revision) for its readers."""
 
@@ -85,20 +90,21 @@ redis.call('ZADD', KEYS[3], now + ttl, ARGV[1])
 return {1}
 """
 
-# KEYS: session hash, lease. ARGV: owner ('' when open), token, lease ms.
-# Returns the session's version once this request holds the lease, 0 while another request holds it, -2
-# when there is no such session of this owner (which never waits). One round trip where reading the owner,
-# taking the lease and reading the version took three: a step pays it each time, on every worker.
+# KEYS: session hash, lease, watch mark. ARGV: owner ('' when open), token, lease ms.
+# Returns {the session's version, 1 when a live page watches it} once this request holds the lease, {0}
+# while another request holds it, {-2} when there is no such session of this owner (which never waits). One
+# round trip where reading the owner, taking the lease and reading the version took three: a step pays it
+# each time, on every worker.
 _ACQUIRE = """
 local found = redis.call('HMGET', KEYS[1], 'owner', 'ver')
-if found[1] ~= ARGV[1] or not found[2] then return -2 end
-if not redis.call('SET', KEYS[2], ARGV[2], 'NX', 'PX', ARGV[3]) then return 0 end
-return tonumber(found[2])
+if found[1] ~= ARGV[1] or not found[2] then return {-2} end
+if not redis.call('SET', KEYS[2], ARGV[2], 'NX', 'PX', ARGV[3]) then return {0} end
+return {tonumber(found[2]), redis.call('EXISTS', KEYS[3])}
 """
 
 # KEYS: session hash, lease, live zset, owner zset, trace zset. ARGV: token, id, ttl ms, write (1|0),
-# snapshot, meta, done flag, view, view revision, frame ('' keeps the last), trace capacity, then step and
-# line pairs of the trace's tail (adding a line already there changes nothing).
+# snapshot, meta, done flag, view, view revision, frame ('' keeps the last, '-' drops it), trace capacity,
+# then step and line pairs of the trace's tail (adding a line already there changes nothing).
 # Returns the stored version, -1 when the lease is no longer this request's, -2 when the session is gone.
 _RELEASE = """
 if redis.call('GET', KEYS[2]) ~= ARGV[1] then return -1 end
@@ -112,7 +118,8 @@ if ARGV[4] == '1' then
   version = redis.call('HINCRBY', KEYS[1], 'ver', 1)
   redis.call('HSET', KEYS[1], 'snap', ARGV[5], 'meta', ARGV[6], 'done', ARGV[7], 'view', ARGV[8],
              'vrev', ARGV[9])
-  if ARGV[10] ~= '' then redis.call('HSET', KEYS[1], 'frame', ARGV[10]) end
+  if ARGV[10] == '-' then redis.call('HDEL', KEYS[1], 'frame')
+  elseif ARGV[10] ~= '' then redis.call('HSET', KEYS[1], 'frame', ARGV[10]) end
   for i = 12, #ARGV, 2 do redis.call('ZADD', KEYS[5], tonumber(ARGV[i]), ARGV[i + 1]) end
   redis.call('ZREMRANGEBYRANK', KEYS[5], 0, -(tonumber(ARGV[11]) + 1))
 else
@@ -289,6 +296,9 @@ class RedisSessionStore:
     def _trace_key(self, session_id: str) -> str:
         return f"{self.prefix}:trace:{session_id}"
 
+    def _watch_key(self, session_id: str) -> str:
+        return f"{self.prefix}:watch:{session_id}"
+
     def _lease_key(self, session_id: str) -> str:
         return f"{self.prefix}:lease:{session_id}"
 
@@ -365,7 +375,7 @@ class RedisSessionStore:
         self, session_id: str, owner: str | None, timeout_s: float, write: bool
     ) -> Iterator[StoredSession]:
         key = self._session_key(session_id)
-        token, version = self._acquire(session_id, owner, timeout_s)
+        token, version, watched = self._acquire(session_id, owner, timeout_s)
         self._leases.add(self._lease_key(session_id), token)
         leased = True
         try:
@@ -382,7 +392,9 @@ class RedisSessionStore:
                 snapshot, meta_json = self._encode(stored)
                 new_frame = stored.new_frame is not None
                 view = stored.publish(None)
-                frame = frame_to_bytes(view.frame) if new_frame and view.frame is not None else b""
+                frame = b""  # an utterance keeps the last step's frame
+                if new_frame and view.frame is not None:
+                    frame = frame_to_bytes(view.frame) if watched else UNWATCHED_FRAME
                 tail = [item for line in view.trace[-2:] for item in (orjson.loads(line)["step"], line)]
                 args = [token, session_id, self.ttl_ms, 1, snapshot, meta_json, int(stored.session.done)]
                 args += [view.to_bytes(), view.revision, frame, TRACE_CAPACITY, *tail]
@@ -451,10 +463,12 @@ class RedisSessionStore:
             self._views.popitem(last=False)
         return view
 
-    async def view_revision(self, session_id: str, owner: str | None) -> str:
+    async def view_revision(self, session_id: str, owner: str | None, *, watch_s: float = 0.0) -> str:
         stored_owner, revision = await self._readers.hmget(self._session_key(session_id), ["owner", "vrev"])
         if stored_owner is None or revision is None or _text(stored_owner) != (owner or ""):
             raise SessionNotFound(session_id)
+        if watch_s > 0:
+            await self._readers.set(self._watch_key(session_id), 1, px=max(1, int(watch_s * 1000)))
         return _text(revision)
 
     async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
@@ -523,18 +537,20 @@ class RedisSessionStore:
         if stored_owner is None or _text(stored_owner) != (owner or ""):
             raise SessionNotFound(session_id)
 
-    def _acquire(self, session_id: str, owner: str | None, timeout_s: float) -> tuple[str, int]:
-        """This request's lease token and the session's version, once the lease is free; SessionNotFound at
-        once for a session this owner does not have, SessionBusy after ``timeout_s``."""
+    def _acquire(self, session_id: str, owner: str | None, timeout_s: float) -> tuple[str, int, bool]:
+        """This request's lease token, the session's version and whether a live page watches it, once the
+        lease is free; SessionNotFound at once for a session this owner does not have, SessionBusy after
+        ``timeout_s``."""
         token = uuid.uuid4().hex
-        keys = [self._session_key(session_id), self._lease_key(session_id)]
+        keys = [self._session_key(session_id), self._lease_key(session_id), self._watch_key(session_id)]
         args: list[str | int] = [owner or "", token, int(self.lease_s * 1000)]
         deadline = time.monotonic() + timeout_s
         tries = 0
         while True:
-            version = int(self._take_lease(keys=keys, args=args))
+            answer = self._take_lease(keys=keys, args=args)
+            version = int(answer[0])
             if version > 0:
-                return token, version
+                return token, version, bool(int(answer[1]))
             if version == -2:
                 self._forget(session_id)
                 raise SessionNotFound(session_id)

@@ -101,8 +101,10 @@ class SessionStore(Protocol):
         SessionNotFound. ``touch`` restarts the idle TTL (a request read it; a watching page does not)."""
         ...
 
-    async def view_revision(self, session_id: str, owner: str | None) -> str:
-        """The latest view's ``revision`` (cheap: what a live page polls); raises SessionNotFound."""
+    async def view_revision(self, session_id: str, owner: str | None, *, watch_s: float = 0.0) -> str:
+        """The latest view's ``revision`` (cheap: what a live page polls); raises SessionNotFound.
+        ``watch_s`` > 0: a live page shows the session and asks again within that many seconds, so its
+        steps' frames are wanted (a store that must encode them to share them skips that otherwise)."""
         ...
 
     async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
@@ -227,8 +229,8 @@ class InMemorySessionStore:
                 entry.last_used = self._clock()
             return entry.view
 
-    async def view_revision(self, session_id: str, owner: str | None) -> str:
-        return (await self.view(session_id, owner, touch=False)).revision
+    async def view_revision(self, session_id: str, owner: str | None, *, watch_s: float = 0.0) -> str:
+        return (await self.view(session_id, owner, touch=False)).revision  # frames stay decoded here
 
     async def trace_lines(self, session_id: str, owner: str | None, since: int | None) -> list[str]:
         return (await self.view(session_id, owner, touch=True)).trace_lines(since)

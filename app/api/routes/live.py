@@ -18,6 +18,7 @@ thread is held per watching client.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import string
 import time
 from collections.abc import AsyncIterator
@@ -41,6 +42,9 @@ router = APIRouter(tags=["live view"], include_in_schema=False)
 EVENT_STREAM = "text/event-stream"
 RECONNECT_MS = 2000
 """What the stream tells a client to wait before reconnecting (SSE ``retry:``)."""
+WATCH_POLLS, WATCH_SLACK_S = 3, 2.0
+"""A stream marks its session watched (so steps store their frames) until this many polls and seconds from
+now; a closed page's mark lapses then."""
 
 
 @cache
@@ -115,6 +119,9 @@ async def _events(
     yield f"retry: {RECONNECT_MS}\n\n".encode()
     sent = last_event_id
     quiet_since = time.monotonic()
+    watch_s = WATCH_POLLS * poll_s + WATCH_SLACK_S
+    with contextlib.suppress(SessionNotFound, redis.RedisError):  # the loop below reports either
+        await store.view_revision(view.session_id, owner, watch_s=watch_s)  # frames from the next step
     while True:
         if view.revision != sent:
             yield await _view_event(view)
@@ -125,7 +132,7 @@ async def _events(
             quiet_since = time.monotonic()
         await asyncio.sleep(poll_s)
         try:
-            if await store.view_revision(view.session_id, owner) != view.revision:
+            if await store.view_revision(view.session_id, owner, watch_s=watch_s) != view.revision:
                 view = await store.view(view.session_id, owner, touch=False)
         except SessionNotFound:
             detail = "the session was deleted or expired"
