@@ -9,8 +9,8 @@ the plan holds as many as were asked; an object joined to one the plan handles g
 with its own type ("clean a mug and a pan" gives the pan the mug's Navigate, Pickup, Place SinkBasin,
 ToggleOn Faucet, ToggleOff Faucet). An object the plan cuts (or switches, opens) where it stands instead of
 carrying it has no cycle, and a joined object then gets those steps ("cut a tomato and a lettuce" gives the
-tomato Navigate, Slice, in the order said). Cycles already done (the history subgoals of EDH, or what the agent
-completed before a re-plan) count toward the number.
+tomato Navigate, Slice, in the order said). Cycles already done (the history subgoals of EDH, or what the
+agent completed before a re-plan) count toward the number.
 
 It only adds: nothing the model planned is removed, a number no cycle can be found for changes nothing,
 and a cycle is given to another type only if that type affords every step of it (a kettle does not get a
