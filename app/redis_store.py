@@ -16,13 +16,12 @@ clock, so hosts need not agree on time); the session's hash expires with the sam
 
 Readers never take the lease: the same script that stores a change's snapshot stores its published view
 (``app.live_view``) in the session's hash (``view``, ``vrev``, and ``frame`` when a step brought one and a
-live page watches the session: ``UNWATCHED_FRAME``) and
-the new trace lines in a sorted set by step, so any worker serves ``GET /v1/sessions/{id}``, its trace, its
-map and the live page from the last completed change while another worker steps the session. The snapshot
-leaves the trace out (the sorted set holds the same lines, written by the same script) and a load takes it
-back from the set. Those reads
-go through an asyncio client (a live page's stream polls ``vrev`` without a worker thread), and each worker
-keeps the views it decoded by revision, so the map of one revision is drawn once per worker.
+live page watches the session: ``UNWATCHED_FRAME``) and the new trace lines in a sorted set by step, so any
+worker serves ``GET /v1/sessions/{id}``, its trace, its map and the live page from the last completed change
+while another worker steps the session. Those reads go through an asyncio client (a live page's stream polls
+``vrev`` without a worker thread), and each worker keeps the views it decoded by revision, so the map of one
+revision is drawn once per worker. The snapshot leaves the trace out (the sorted set holds the same lines,
+written by the same script), and a worker that loads a session takes the lines back from the set.
 """
 
 from __future__ import annotations
